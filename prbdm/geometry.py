@@ -1,0 +1,300 @@
+"""The beam: a symmetric planform of uniform thickness, clamped at x = 0 (SPEC §1).
+
+The planform is given by its half-width ``w(x)``, piecewise linear through stations
+``(x_k, w_k)``; the beam bends out of plane (deflection along z). Everything here is NumPy only, so
+the truth solvers can use it without importing torch; the differentiable section integrals used by
+the PRBDM live in :mod:`prbdm.sections`.
+
+Units are SI throughout: metres, pascals, kilograms per cubic metre.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BadInput
+
+__all__ = ["Material", "Beam", "STEEL", "random_beam", "RANDOM_DEFAULTS", "load_beam"]
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic linear-elastic material.
+
+    E: Young's modulus [Pa]; rho: density [kg/m^3]; nu: Poisson's ratio [-] (plate truth only).
+    """
+
+    E: float = 205e9
+    rho: float = 7850.0
+    nu: float = 0.28
+
+    def __post_init__(self):
+        for name in ("E", "rho", "nu"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise BadInput(f"material.{name}: must be a number, got {v!r}")
+            if not math.isfinite(v):
+                raise BadInput(f"material.{name}: must be finite, got {v!r}")
+        if not self.E > 0:
+            raise BadInput(f"material.E: must be > 0 Pa, got {self.E!r}")
+        if not self.rho > 0:
+            raise BadInput(f"material.rho: must be > 0 kg/m^3, got {self.rho!r}")
+        if not -1.0 < self.nu < 0.5:
+            raise BadInput(f"material.nu: must lie in (-1, 0.5), got {self.nu!r}")
+
+    def to_dict(self) -> dict:
+        return {"E": float(self.E), "rho": float(self.rho), "nu": float(self.nu)}
+
+
+#: AISI 4340 steel, the paper's material and the default (SPEC §1).
+STEEL = Material()
+
+
+def _as_float_array(value, name: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise BadInput(f"{name}: must be a list of numbers") from None
+    if arr.ndim != 1:
+        raise BadInput(f"{name}: must be a one-dimensional list of numbers")
+    if not np.all(np.isfinite(arr)):
+        raise BadInput(f"{name}: all values must be finite")
+    return arr
+
+
+@dataclass(frozen=True)
+class Beam:
+    """A cantilever panel: stations ``x`` [m], half-widths ``half_width`` [m] at those stations,
+    uniform ``thickness`` [m], and a :class:`Material`.
+
+    ``x[0] == 0`` (the clamp) and ``x`` strictly increasing; ``x[-1]`` is the length ``L``.
+    """
+
+    x: np.ndarray
+    half_width: np.ndarray
+    thickness: float
+    material: Material = field(default_factory=Material)
+    name: str = ""
+
+    def __post_init__(self):
+        x = _as_float_array(self.x, "x")
+        w = _as_float_array(self.half_width, "half_width")
+        if x.size < 2:
+            raise BadInput(f"x: needs at least 2 stations (root and tip), got {x.size}")
+        if w.size != x.size:
+            raise BadInput(f"half_width: needs one value per station of x ({x.size}), got {w.size}")
+        if x[0] != 0.0:
+            raise BadInput(f"x: must start at 0 (the clamp), got x[0] = {x[0]!r}")
+        steps = np.diff(x)
+        if np.any(steps <= 0):
+            k = int(np.argmax(steps <= 0))
+            raise BadInput(f"x: must be strictly increasing, but x[{k + 1}] = {x[k + 1]!r} <= "
+                           f"x[{k}] = {x[k]!r}")
+        if np.any(w <= 0):
+            k = int(np.argmax(w <= 0))
+            raise BadInput(f"half_width: must be > 0 m everywhere, got half_width[{k}] = {w[k]!r}")
+        t = self.thickness
+        if isinstance(t, bool) or not isinstance(t, (int, float, np.floating, np.integer)):
+            raise BadInput(f"thickness: must be a number, got {t!r}")
+        if not math.isfinite(t) or not t > 0:
+            raise BadInput(f"thickness: must be a finite number > 0 m, got {t!r}")
+        if not isinstance(self.material, Material):
+            raise BadInput("material: must be a Material")
+        x.setflags(write=False)
+        w.setflags(write=False)
+        object.__setattr__(self, "x", x)
+        object.__setattr__(self, "half_width", w)
+        object.__setattr__(self, "thickness", float(t))
+        object.__setattr__(self, "name", str(self.name))
+
+    # ------------------------------------------------------------------ basic properties
+    @property
+    def length(self) -> float:
+        """L [m]."""
+        return float(self.x[-1])
+
+    @property
+    def area(self) -> float:
+        """Planform area [m^2]: the integral of the full width 2 w(x)."""
+        return float(np.sum(np.diff(self.x) * (self.half_width[1:] + self.half_width[:-1])))
+
+    @property
+    def mass(self) -> float:
+        """Total mass [kg]."""
+        return self.material.rho * self.thickness * self.area
+
+    def width_at(self, xq) -> np.ndarray:
+        """Full width b(x) = 2 w(x) [m] at stations ``xq`` (linear interpolation)."""
+        return 2.0 * np.interp(xq, self.x, self.half_width)
+
+    def is_uniform(self, rtol: float = 1e-12) -> bool:
+        """True for a constant half-width (the analytic truth applies)."""
+        w = self.half_width
+        return bool(np.all(np.abs(w - w[0]) <= rtol * abs(w[0])))
+
+    # ------------------------------------------------------------------ conversions
+    def to_dict(self) -> dict:
+        """The beam-file dictionary of SPEC §1."""
+        d = {"x": self.x.tolist(), "half_width": self.half_width.tolist(),
+             "thickness": self.thickness, "material": self.material.to_dict()}
+        if self.name:
+            d = {"name": self.name, **d}
+        return d
+
+    def to_json(self, path=None, **kwargs) -> str:
+        text = json.dumps(self.to_dict(), **kwargs)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text
+
+    @classmethod
+    def from_dict(cls, data) -> "Beam":
+        """Build from a beam-file dictionary (SPEC §1). Unknown keys are an error."""
+        if not isinstance(data, dict):
+            raise BadInput("beam: must be a JSON object with keys x, half_width, thickness")
+        allowed = {"name", "x", "half_width", "thickness", "material"}
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise BadInput(f"beam: unknown key {unknown[0]!r}; allowed keys are "
+                           f"{', '.join(sorted(allowed))}")
+        for key in ("x", "half_width", "thickness"):
+            if key not in data:
+                raise BadInput(f"beam: missing required key {key!r}")
+        mat = data.get("material", {})
+        if not isinstance(mat, dict):
+            raise BadInput("material: must be an object with keys E, rho, nu")
+        unknown = sorted(set(mat) - {"E", "rho", "nu"})
+        if unknown:
+            raise BadInput(f"material: unknown key {unknown[0]!r}; allowed keys are E, nu, rho")
+        name = data.get("name", "")
+        if not isinstance(name, str):
+            raise BadInput("name: must be a string")
+        return cls(x=data["x"], half_width=data["half_width"], thickness=data["thickness"],
+                   material=Material(**mat), name=name)
+
+    @classmethod
+    def from_polygon(cls, polygon, thickness: float, material: Material | None = None,
+                     name: str = "", rtol: float = 1e-9) -> "Beam":
+        """Build from a shapely polygon symmetric about the x axis, root edge on x = 0.
+
+        The polygon must be valid (not self-intersecting) and its upper boundary must be a
+        function of x (one half-width per station).
+        """
+        from shapely.geometry import Polygon  # shapely only when polygons are used
+        from shapely import affinity
+
+        if not isinstance(polygon, Polygon):
+            raise BadInput("polygon: must be a shapely Polygon")
+        if polygon.is_empty or not polygon.is_valid:
+            raise BadInput("polygon: must be a valid, non-self-intersecting polygon")
+        if len(polygon.interiors):
+            raise BadInput("polygon: must have no holes")
+        xmin, ymin, xmax, ymax = polygon.bounds
+        scale = max(xmax - xmin, ymax - ymin)
+        tol = rtol * scale
+        if abs(xmin) > tol:
+            raise BadInput(f"polygon: root edge must lie on x = 0, got min x = {xmin!r}")
+        mirrored = affinity.scale(polygon, xfact=1.0, yfact=-1.0, origin=(0, 0))
+        if polygon.symmetric_difference(mirrored).area > rtol * polygon.area + tol ** 2:
+            raise BadInput("polygon: must be symmetric about the x axis")
+        coords = np.asarray(polygon.exterior.coords)[:-1]
+        upper = coords[coords[:, 1] > tol]
+        xs = np.unique(np.concatenate([[0.0], upper[:, 0], [xmax]]))
+        xs[0] = 0.0
+        # half-width at each station: the top of the polygon's vertical section there
+        ws = np.array([_polygon_top(polygon, xi, scale) for xi in xs])
+        beam = cls(x=xs, half_width=ws, thickness=thickness,
+                   material=material or Material(), name=name)
+        if beam.to_polygon().symmetric_difference(polygon).area > 1e-6 * polygon.area:
+            raise BadInput("polygon: the upper boundary must be a function of x "
+                           "(one half-width at each station)")
+        return beam
+
+    def to_polygon(self):
+        """The planform as a shapely polygon (root edge on x = 0)."""
+        from shapely.geometry import Polygon
+
+        upper = np.column_stack([self.x, self.half_width])
+        lower = np.column_stack([self.x[::-1], -self.half_width[::-1]])
+        return Polygon(np.vstack([upper, lower]))
+
+
+def _polygon_top(polygon, xi: float, scale: float) -> float:
+    from shapely.geometry import LineString
+
+    # nudge end stations inside so that a vertical root or tip edge is cut cleanly
+    eps = 1e-9 * scale
+    xmin, _, xmax, _ = polygon.bounds
+    xc = min(max(xi, xmin + eps), xmax - eps)
+    cut = polygon.intersection(LineString([(xc, -2 * scale), (xc, 2 * scale)]))
+    if cut.is_empty:
+        raise BadInput(f"polygon: no material at x = {xi!r}")
+    return float(cut.bounds[3])
+
+
+def load_beam(source) -> Beam:
+    """Read a beam file (SPEC §1): a path, ``'-'`` for standard input, or a dict."""
+    if isinstance(source, Beam):
+        return source
+    if isinstance(source, dict):
+        return Beam.from_dict(source)
+    import sys
+
+    if str(source) == "-":
+        text, label = sys.stdin.read(), "standard input"
+    else:
+        path = Path(source)
+        if not path.is_file():
+            raise BadInput(f"BEAM: no such file {str(source)!r}")
+        text, label = path.read_text(), str(source)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BadInput(f"BEAM: {label} is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    return Beam.from_dict(data)
+
+
+# ---------------------------------------------------------------------- random beams
+
+#: Parameters of the paper's random generator (Sec. 2.1, scalings of its reference code).
+RANDOM_DEFAULTS = dict(p=10, length=1.0, max_half_width=0.5, max_thickness=0.05,
+                       min_thickness=0.01, min_half_width=0.0)
+
+
+def random_beam(seed: int, index: int, p: int = 10, length: float = 1.0,
+                max_half_width: float = 0.5, max_thickness: float = 0.05,
+                min_thickness: float = 0.01, min_half_width: float = 0.0,
+                material: Material | None = None) -> Beam:
+    """The paper's random beam number ``index`` of the stream ``seed``: a pure function.
+
+    ``p`` interior stations ``x = L * [0, sort(U^p), 1]``; ``p + 2`` half-widths
+    ``max_half_width * U`` raised to ``min_half_width``; thickness ``max_thickness * U`` clipped
+    below at ``min_thickness``. U is drawn on (0, 1] (as ``1 - random()``) so no width is exactly
+    zero. The draws come from ``numpy.random.default_rng([seed, index])`` in that order, so any
+    beam of a data set can be rebuilt alone.
+    """
+    for name, v in (("seed", seed), ("index", index)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+            raise BadInput(f"{name}: must be an integer >= 0, got {v!r}")
+    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 0:
+        raise BadInput(f"p: must be an integer >= 0, got {p!r}")
+    if not 0 <= min_half_width < max_half_width:
+        raise BadInput(f"min_half_width: must lie in [0, max_half_width = {max_half_width}), "
+                       f"got {min_half_width!r}")
+    if not 0 < min_thickness <= max_thickness:
+        raise BadInput(f"min_thickness: must lie in (0, max_thickness = {max_thickness}], "
+                       f"got {min_thickness!r}")
+    rng = np.random.default_rng([int(seed), int(index)])
+    interior = np.sort(1.0 - rng.random(p))
+    x = length * np.concatenate([[0.0], interior, [1.0]])
+    w = np.maximum(max_half_width * (1.0 - rng.random(p + 2)), min_half_width)
+    t = max(max_thickness * (1.0 - rng.random()), min_thickness)
+    if np.any(np.diff(x) <= 0):  # probability ~1e-15: merge coincident stations
+        keep = np.concatenate([[True], np.diff(x) > 0])
+        x, w = x[keep], w[keep]
+    return Beam(x=x, half_width=w, thickness=t, material=material or Material(),
+                name=f"random seed={seed} index={index} p={p}")
