@@ -1,0 +1,255 @@
+"""prbdm.dataset and `prbdm dataset`: storage, resume after kill -9, extension, refusal of a
+different spec, failure isolation, the Dask path, the manifest, reading with plain pyarrow.
+
+The real pipeline (FEM truth + torch fit) runs on a few small beams (joints 2, 4 starts); the
+storage mechanics that need many records use a light stand-in labeller.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from prbdm import dataset as D
+from prbdm.cli import main
+from prbdm.errors import BadInput
+
+# the real pipeline, kept small: 2 joints, 4 starts
+REAL = ["--joints", "2", "--starts", "4", "--seed", "7"]
+SPEC = dict(joints=2, starts=4, seed=7)
+
+
+def fake_labeller(index, spec):
+    """Stand-in for label_beam: the real geometry, made-up labels, beam 3 fails."""
+    beam = D.beam_for(spec, index)
+    if index == 3:
+        return {"index": index, "status": "error", "error": "fit: ValueError: injected"}
+    return {"index": index, "status": "ok", "x": beam.x.tolist(),
+            "half_width": beam.half_width.tolist(), "thickness": beam.thickness,
+            "gamma": [0.5, 0.5], "k": [1.0], "loss_percent": 0.01 * index, "time_s": 0.001}
+
+
+def _cli(*argv) -> list[str]:
+    return [sys.executable, "-c", "import sys; from prbdm.cli import main; sys.exit(main())", *argv]
+
+
+def _indices(path) -> list[int]:
+    return sorted(pq.read_table(path, columns=["index"]).column("index").to_pylist())
+
+
+# ---------------------------------------------------------------------- spec
+
+def test_spec_defaults_and_validation():
+    spec = D.make_spec(joints=3)
+    assert spec["modes"] == 3 and spec["truth_modes"] == 4 and spec["truth"] == "beam"
+    assert spec["beam"]["p"] == 10 and spec["beam"]["material"]["E"] == 205e9
+    assert D.make_spec(joints=2, modes=4)["truth_modes"] == 5
+    assert D.spec_difference(spec, D.make_spec(joints=3)) is None
+    assert D.spec_difference(spec, D.make_spec(joints=3, p=4)) == "beam.p"
+    with pytest.raises(BadInput, match="--truth"):
+        D.make_spec(joints=3, truth="analytic")
+    with pytest.raises(BadInput, match="--joints"):
+        D.make_spec(joints=0)
+    # a beam of the set is a pure function of (seed, index)
+    a, b = D.beam_for(spec, 5), D.beam_for(D.make_spec(joints=3), 5)
+    assert np.array_equal(a.x, b.x) and a.thickness == b.thickness
+
+
+# ---------------------------------------------------------------------- storage, resume, extend
+
+def test_generate_extend_and_plain_pyarrow(tmp_path):
+    out = tmp_path / "set"
+    spec = D.make_spec(**SPEC)
+    s1 = D.generate(out, 6, spec, workers=0, labeller=fake_labeller, part_size=4,
+                    progress="none")
+    assert s1["new"] == 6 and s1["new_errors"] == 1 and s1["missing"] == 0 and s1["parts"] == 2
+    first_parts = {p.name: p.read_bytes() for p in D.part_files(out)}
+    s2 = D.generate(out, 10, spec, workers=0, labeller=fake_labeller, part_size=4,
+                    progress="none")
+    assert s2["new"] == 4 and s2["records"] == 10
+    # records already written are neither recomputed nor rewritten
+    assert all((out / name).read_bytes() == data for name, data in first_parts.items())
+    s3 = D.generate(out, 10, spec, workers=0, labeller=fake_labeller, progress="none")
+    assert s3["new"] == 0
+
+    # plain pyarrow / pandas, without prbdm
+    table = pq.read_table(out)
+    assert sorted(table.column("index").to_pylist()) == list(range(10))
+    import pandas as pd
+
+    df = pd.read_parquet(out).set_index("index").sort_index()
+    assert df.loc[3, "status"] == "error" and "injected" in df.loc[3, "error"]
+    assert list(df.loc[4, "gamma"]) == [0.5, 0.5]
+    assert list(df.loc[4, "x"]) == D.beam_for(spec, 4).x.tolist()
+
+    manifest = json.loads((out / D.MANIFEST).read_text())
+    assert manifest["format"] == "prbdm-dataset" and manifest["count"] == 10
+    assert manifest["spec"] == spec and manifest["spec"]["seed"] == 7
+    assert {"python", "prbdm", "numpy", "pyarrow"} <= set(manifest["versions"])
+    assert "git_commit" in manifest and len(manifest["runs"]) == 3
+    assert all(r["finished"] for r in manifest["runs"])
+    assert set(manifest["columns"]) == set(table.column_names)
+
+
+def test_refusals(tmp_path, capsys):
+    out = tmp_path / "set"
+    D.generate(out, 2, D.make_spec(**SPEC), workers=0, labeller=fake_labeller, progress="none")
+    # different spec: exit 2, one line naming the field
+    assert main(["dataset", "generate", "--out", str(out), "--count", "4", "--joints", "3",
+                 "--starts", "4", "--seed", "7"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--joints" in err and "joints = 2" in err
+    assert main(["dataset", "generate", "--out", str(out), "--count", "4", *REAL,
+                 "--truth", "plate"]) == 2
+    assert "--truth" in capsys.readouterr().err
+    # a folder that is not a data set
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    assert main(["dataset", "generate", "--out", str(other), "--count", "1", *REAL]) == 2
+    assert "not a prbdm data set" in capsys.readouterr().err
+    # a folder being written by another run
+    with D._FolderLock(out):
+        with pytest.raises(BadInput, match="another run"):
+            D.generate(out, 4, D.make_spec(**SPEC), workers=0, labeller=fake_labeller,
+                       progress="none")
+    assert main(["dataset", "info", str(tmp_path / "nowhere")]) == 2
+
+
+def test_stale_temporary_is_ignored_and_removed(tmp_path):
+    out = tmp_path / "set"
+    spec = D.make_spec(**SPEC)
+    D.generate(out, 2, spec, workers=0, labeller=fake_labeller, progress="none")
+    junk = out / ".part-000001.parquet.abc.tmp"
+    junk.write_bytes(b"PAR1 half a file")       # what a kill -9 during a write leaves
+    assert pq.read_table(out).num_rows == 2       # readers skip hidden files
+    D.generate(out, 3, spec, workers=0, labeller=fake_labeller, progress="none")
+    assert not junk.exists() and pq.read_table(out).num_rows == 3
+
+
+def test_process_pool_matches_in_process(tmp_path):
+    spec = D.make_spec(**SPEC)
+    D.generate(tmp_path / "a", 5, spec, workers=0, labeller=fake_labeller, progress="none")
+    s = D.generate(tmp_path / "b", 5, spec, workers=2, labeller=fake_labeller, part_size=2,
+                   progress="none")
+    assert s["workers"] == 2
+    a = D.read_table(tmp_path / "a").drop(["time_s", "worker"])
+    b = D.read_table(tmp_path / "b").drop(["time_s", "worker"])
+    assert a.equals(b)
+
+
+# ---------------------------------------------------------------------- the real pipeline
+
+def test_label_beam_real_and_failure_isolation(tmp_path, monkeypatch):
+    import prbdm.truth
+
+    spec = D.make_spec(**SPEC)
+    rec = D.label_beam(0, spec)
+    assert rec["status"] == "ok", rec["error"]
+    assert len(rec["omega_truth"]) == spec["truth_modes"] == 3
+    assert np.all(np.diff(rec["omega_truth"]) > 0)
+    assert len(rec["gamma"]) == 3 and abs(sum(rec["gamma"]) - 1) < 1e-9
+    assert len(rec["k"]) >= 1 and rec["loss_percent"] >= 0 and rec["time_s"] > 0
+    assert len(rec["freq_error_max"]) == 2 and rec["error"] is None
+
+    real = prbdm.truth.bending_frequencies
+
+    def flaky(beam, **kw):
+        if "index=1 " in beam.name:
+            raise RuntimeError("solver blew up")
+        return real(beam, **kw)
+
+    monkeypatch.setattr(prbdm.truth, "bending_frequencies", flaky)
+    out = tmp_path / "set"
+    s = D.generate(out, 3, spec, workers=0, progress="none")
+    assert s["new"] == 3 and s["new_errors"] == 1
+    df = D.read_table(out).to_pandas().set_index("index")
+    assert df.loc[1, "status"] == "error"
+    assert df.loc[1, "error"] == "truth: RuntimeError: solver blew up"
+    assert list(df.loc[1, "x"]) == D.beam_for(spec, 1).x.tolist()  # geometry kept
+    assert (df.loc[[0, 2], "status"] == "ok").all()
+    assert df.loc[0, "gamma"].tolist() == rec["gamma"]                # reproducible
+
+
+def test_dask_local_cluster_same_records(tmp_path):
+    from dask.distributed import Client, LocalCluster
+
+    spec = D.make_spec(**SPEC)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        s = D.generate(tmp_path / "dask", 2, spec, scheduler=client, part_size=1,
+                       progress="none")
+    assert s["new"] == 2 and s["new_errors"] == 0 and s["parts"] == 2
+    manifest = D.read_manifest(tmp_path / "dask")
+    assert manifest["runs"][0]["scheduler"].startswith("dask ")
+    got = D.read_table(tmp_path / "dask").to_pylist()
+    for rec in got:
+        ref = D.label_beam(rec["index"], spec)
+        assert rec["gamma"] == ref["gamma"] and rec["omega_truth"] == ref["omega_truth"]
+
+
+def test_kill9_then_resume(tmp_path):
+    """kill -9 the generating process mid-run, rerun: no index missing, none duplicated."""
+    out = tmp_path / "set"
+    cmd = _cli("dataset", "generate", "--out", str(out), "--count", "8", *REAL,
+               "--workers", "1", "--part-size", "1", "--progress", "log")
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not D.part_files(out) and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.05)
+        assert D.part_files(out), proc.stderr.read().decode() if proc.poll() is not None else ""
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)      # the process and its pool, like a crash
+        proc.wait()
+    before = {p.name: _indices(p) for p in D.part_files(out)}
+    assert 1 <= sum(map(len, before.values())) < 8
+    for p in D.part_files(out):                  # every part left behind is whole
+        pq.read_table(p)
+
+    done = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    assert summary["records"] == 8 and summary["missing"] == 0
+    assert summary["new"] == 8 - sum(map(len, before.values()))   # nothing recomputed
+    assert {p.name: _indices(out / p.name) for p in map(Path, before)} == before
+    idx = pq.read_table(out).column("index").to_pylist()
+    assert sorted(idx) == list(range(8))         # none missing, none duplicated
+
+    info = subprocess.run(_cli("dataset", "info", str(out), "--json"), capture_output=True,
+                          text=True, timeout=60)
+    s = json.loads(info.stdout)
+    assert s["complete"] and s["duplicated"] == 0 and s["ok"] + s["errors"] == 8
+    assert s["loss_percent"]["median"] >= 0 and s["time_per_beam_s"]["median"] > 0
+    assert len(s["runs"]) == 2 and s["runs"][0]["finished"] is None
+
+
+def test_info_text(tmp_path, capsys):
+    out = tmp_path / "set"
+    D.generate(out, 5, D.make_spec(**SPEC), workers=0, labeller=fake_labeller, progress="none")
+    assert main(["dataset", "info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "records 5 of 5 (complete" in text and "fit: ValueError" in text
+    assert main(["dataset", "info", str(out), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["ok"] == 4 and s["errors"] == 1 and s["error_kinds"] == {"fit: ValueError": 1}
+    assert s["loss_percent"]["median"] == pytest.approx(0.015)  # 0, .01, .02, .04
+
+
+@pytest.mark.slow
+def test_cli_local_dask_cluster_processes(tmp_path):
+    out = tmp_path / "set"
+    r = subprocess.run(_cli("dataset", "generate", "--out", str(out), "--count", "3", *REAL,
+                            "--workers", "1", "--scheduler", "local", "--json"),
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["records"] == 3
