@@ -455,9 +455,20 @@ def _one_thread_children():
 
 
 def _init_worker() -> None:
+    """In each pool worker: leave Ctrl-C to the parent, and exit when the parent dies (a
+    kill -9 of the parent would otherwise leave the worker blocked on its queue forever)."""
     import signal
+    import threading
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="prbdm-parent-watch", daemon=True).start()
 
 
 def _worker_ready() -> dict:

@@ -1,0 +1,85 @@
+"""Labelled beams per second: each truth model, 1 and 2 workers (issue 5).
+
+    python benchmarks/bench_dataset.py                      # beam + plate truth, 1 and 2 workers
+    python benchmarks/bench_dataset.py --truth beam --count 32 --workers 1,2 --joints 4
+
+Each case labels ``--count`` random beams (seed 0) into a fresh temporary folder through
+:func:`prbdm.dataset.generate` with a local process pool, exactly as ``prbdm dataset generate``
+does, and reports:
+
+* ``startup s``: spawning the workers (imports of torch and scikit-fem included);
+* ``beams/s``: records written per second of labelling after start-up (the steady rate);
+* ``per worker``: beams/s divided by the number of workers;
+* ``truth s``, ``fit s``: median time of each stage per beam inside a worker.
+
+Target (issue 5): with the ``beam`` truth and n = 4, at least 1 beam/s per core. On a machine
+shared with other work, the 2-worker rate is only meaningful when 2 cores are free.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+def bench(truth: str, workers: int, count: int, joints: int, starts, seed: int) -> dict:
+    from prbdm import dataset as D
+
+    spec = D.make_spec(joints=joints, truth=truth, starts=starts, seed=seed)
+    with tempfile.TemporaryDirectory(prefix="bench-dataset-") as tmp:
+        t0 = time.perf_counter()
+        s = D.generate(tmp, count, spec, workers=workers, progress="none")
+        wall = time.perf_counter() - t0
+        t = D.read_table(tmp, columns=["status", "truth_time_s", "fit_time_s", "time_s"])
+        d = t.to_pydict()
+    med = lambda key: float(np.nanmedian(np.asarray(d[key], dtype=float)))  # noqa: E731
+    return {"truth": truth, "workers": workers, "joints": joints, "beams": s["new"],
+            "errors": s["new_errors"], "startup_s": s["startup_s"], "wall_s": wall,
+            "beams_per_s": s["beams_per_s"], "per_worker": s["beams_per_s"] / workers,
+            "truth_s": med("truth_time_s"), "fit_s": med("fit_time_s"), "beam_s": med("time_s")}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--truth", default="beam,plate", help="comma list (default beam,plate)")
+    ap.add_argument("--workers", default="1,2", help="comma list (default 1,2)")
+    ap.add_argument("--count", type=int, default=24, help="beams per case (default 24)")
+    ap.add_argument("--plate-count", type=int, default=None,
+                    help="beams per plate case (default: --count)")
+    ap.add_argument("--joints", type=int, default=4, help="n (default 4)")
+    ap.add_argument("--starts", type=int, default=None, help="fit starts (default: fit default)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", action="store_true", help="one JSON line per case, no table")
+    args = ap.parse_args(argv)
+
+    rows = []
+    for truth in args.truth.split(","):
+        for w in (int(v) for v in args.workers.split(",")):
+            count = args.plate_count if truth == "plate" and args.plate_count else args.count
+            r = bench(truth, w, count, args.joints, args.starts, args.seed)
+            rows.append(r)
+            if args.json:
+                print(json.dumps(r), flush=True)
+            else:
+                print(f"  {truth} truth, {w} worker(s): {r['beams_per_s']:.2f} beams/s",
+                      file=sys.stderr, flush=True)
+    if not args.json:
+        from prbdm.commands._common import table
+
+        print(f"n = {args.joints}, starts = {args.starts or 'default'}, "
+              f"{os.cpu_count()} cores visible")
+        print(table([[r["truth"], r["workers"], r["beams"], r["errors"], f"{r['startup_s']:.1f}",
+                      f"{r['beams_per_s']:.2f}", f"{r['per_worker']:.2f}",
+                      f"{r['truth_s']:.3f}", f"{r['fit_s']:.3f}"] for r in rows],
+                    ["truth", "workers", "beams", "errors", "startup s", "beams/s",
+                     "per worker", "truth s", "fit s"]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
