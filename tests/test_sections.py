@@ -1,0 +1,176 @@
+"""Section integrals (prbdm.sections) against independent references: shapely's area and centroid of
+the planform cut between a and b, numerical quadrature of the rotary inertia, and
+scipy.integrate.quad of the beam-law compliance ∫ dx / w (near-equal widths and very tapered
+segments included); gradients by torch.autograd.gradcheck."""
+import numpy as np
+import pytest
+import torch
+from scipy import integrate
+from shapely.geometry import box
+
+from prbdm.geometry import Beam, random_beam
+from prbdm.sections import span_integrals
+
+@pytest.fixture(autouse=True)
+def _float64():
+    """float64 for every tensor made in these tests, restored afterwards (no leak to other files)."""
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float64)
+    yield
+    torch.set_default_dtype(old)
+
+
+
+def _spans(rng, n=6):
+    a = rng.uniform(0, 1, n)
+    b = rng.uniform(0, 1, n)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    # include the whole beam, a span starting at the clamp, one ending at the tip
+    lo = np.concatenate([lo, [0.0, 0.0, 0.3]])
+    hi = np.concatenate([hi, [1.0, 0.2, 1.0]])
+    return lo, hi
+
+
+def _integrals(beam, lo, hi):
+    x = torch.tensor(beam.x / beam.length)
+    w = torch.tensor(beam.half_width / beam.length)
+    return span_integrals(x, w, torch.tensor(lo), torch.tensor(hi))
+
+
+@pytest.mark.parametrize("index", range(4))
+def test_area_and_centroid_match_shapely(index):
+    beam = random_beam(7, index)          # L = 1, so nondimensional == SI here
+    poly = beam.to_polygon()
+    rng = np.random.default_rng(index)
+    lo, hi = _spans(rng)
+    si = _integrals(beam, lo, hi)
+    for i in range(len(lo)):
+        cut = poly.intersection(box(lo[i], -1.0, hi[i], 1.0))
+        assert si.area[i].item() == pytest.approx(cut.area, rel=1e-12, abs=1e-15)
+        centroid = (lo[i] + hi[i]) / 2 + si.centroid[i].item()
+        assert centroid == pytest.approx(cut.centroid.x, rel=1e-10, abs=1e-12)
+
+
+def _w(beam):
+    return lambda s: np.interp(s, beam.x, beam.half_width)
+
+
+@pytest.mark.parametrize("index", range(3))
+def test_rotary_inertia_matches_quadrature(index):
+    beam = random_beam(11, index, p=6)
+    rng = np.random.default_rng(100 + index)
+    lo, hi = _spans(rng, 4)
+    si = _integrals(beam, lo, hi)
+    w = _w(beam)
+    for i in range(len(lo)):
+        pts = [s for s in beam.x if lo[i] < s < hi[i]]
+        area = integrate.quad(lambda s: 2 * w(s), lo[i], hi[i], points=pts, epsabs=0,
+                              epsrel=1e-13, limit=200)[0]
+        xc = integrate.quad(lambda s: 2 * w(s) * s, lo[i], hi[i], points=pts, epsabs=0,
+                            epsrel=1e-13, limit=200)[0] / area
+        J = integrate.quad(lambda s: 2 * w(s) * (s - xc) ** 2, lo[i], hi[i], points=pts,
+                           epsabs=0, epsrel=1e-13, limit=200)[0]
+        assert si.central_second[i].item() == pytest.approx(J, rel=1e-9)
+        # also against a dense midpoint rule (an even cruder but fully different method)
+        s = np.linspace(lo[i], hi[i], 200_001)
+        sm = (s[1:] + s[:-1]) / 2
+        Jm = np.sum(2 * w(sm) * (sm - xc) ** 2) * (hi[i] - lo[i]) / len(sm)
+        assert si.central_second[i].item() == pytest.approx(Jm, rel=1e-6)
+
+
+@pytest.mark.parametrize("w0, w1", [
+    (0.2, 0.2),                 # uniform: u = 0
+    (0.2, 0.2 * (1 + 1e-9)),    # series branch, tiny difference
+    (0.2, 0.2 * (1 + 5e-4)),    # series branch near its edge
+    (0.2, 0.2 * (1 + 2e-3)),    # exact branch just past the edge
+    (0.2, 0.2 * (1 - 9.9e-4)),  # series branch, decreasing
+    (0.3, 1e-4),                # very tapered (3000:1)
+    (1e-5, 0.5),                # very tapered the other way
+])
+def test_compliance_matches_quad(w0, w1):
+    beam = Beam(x=[0.0, 0.4, 1.0], half_width=[w0, w1, w0], thickness=0.01)
+    w = _w(beam)
+    for lo, hi in [(0.0, 1.0), (0.05, 0.37), (0.1, 0.9), (0.4, 0.41)]:
+        ref = integrate.quad(lambda s: 1 / w(s), lo, hi, points=[0.4] if lo < 0.4 < hi else None,
+                             epsabs=0, epsrel=1e-13, limit=200)[0]
+        got = _integrals(beam, np.array([lo]), np.array([hi])).compliance.item()
+        assert got == pytest.approx(ref, rel=1e-11)
+
+
+def test_empty_span_is_zero():
+    beam = random_beam(3, 0)
+    si = _integrals(beam, np.array([0.4, 1.0]), np.array([0.4, 1.0]))
+    for v in si:
+        assert torch.all(v == 0)
+
+
+def test_padding_with_repeated_tip_stations_changes_nothing():
+    beam = random_beam(3, 1, p=4)
+    x = torch.tensor(beam.x)
+    w = torch.tensor(beam.half_width)
+    xp = torch.cat([x, torch.ones(3)])
+    wp = torch.cat([w, w[-1:].expand(3)])
+    a, b = torch.tensor([0.0, 0.2, 0.7]), torch.tensor([1.0, 0.5, 1.0])
+    for u, v in zip(span_integrals(x, w, a, b), span_integrals(xp, wp, a, b)):
+        torch.testing.assert_close(u, v, rtol=1e-14, atol=1e-16)
+
+
+def test_batched_equals_loop():
+    beams = [random_beam(5, i, p=p) for i, p in enumerate([0, 3, 10])]
+    S = max(len(b.x) for b in beams)
+    X = np.ones((3, S))
+    W = np.empty((3, S))
+    for i, b in enumerate(beams):
+        X[i, :len(b.x)] = b.x
+        W[i, :len(b.x)] = b.half_width
+        W[i, len(b.x):] = b.half_width[-1]
+    rng = np.random.default_rng(0)
+    lo = np.sort(rng.uniform(0, 1, (3, 5, 2)), -1)
+    si = span_integrals(torch.tensor(X), torch.tensor(W),
+                        torch.tensor(lo[..., 0]), torch.tensor(lo[..., 1]))
+    for i, b in enumerate(beams):
+        for j in range(5):
+            one = _integrals(b, lo[i, j, :1], lo[i, j, 1:])
+            for u, v in zip(si, one):
+                assert u[i, j].item() == pytest.approx(v.item(), rel=1e-13, abs=1e-16)
+
+
+def test_gradcheck_cut_positions_and_geometry():
+    beam = random_beam(2, 4, p=5)
+    x = torch.tensor(beam.x)
+    w = torch.tensor(beam.half_width, requires_grad=True)
+    xi = x[1:-1].clone().requires_grad_(True)       # interior stations
+    # cuts away from the stations (the integrals are C^1 in the cuts, piecewise smooth in x)
+    a = torch.tensor([0.0, 0.13, 0.51], requires_grad=True)
+    b = torch.tensor([0.29, 0.77, 0.995], requires_grad=True)
+
+    def f(a, b, xi, w):
+        xx = torch.cat([x[:1], xi, x[-1:]])
+        si = span_integrals(xx, w, a, b)
+        return torch.cat([si.area, si.first, si.second, si.compliance, si.central_second])
+
+    assert torch.autograd.gradcheck(f, (a, b, xi, w))
+
+
+def test_gradient_wrt_cut_is_the_integrand():
+    """d/db ∫_a^b f = f(b): an exact, independent check of the derivative in the cut positions."""
+    beam = random_beam(2, 5, p=5)
+    x, w = torch.tensor(beam.x), torch.tensor(beam.half_width)
+    a = torch.tensor([0.1], requires_grad=True)
+    b = torch.tensor([0.8], requires_grad=True)
+    si = span_integrals(x, w, a, b)
+    ga, gb = torch.autograd.grad(si.area.sum() + si.compliance.sum(), (a, b))
+    wa, wb = np.interp([0.1, 0.8], beam.x, beam.half_width)
+    assert gb.item() == pytest.approx(2 * wb + 1 / wb, rel=1e-12)
+    assert ga.item() == pytest.approx(-(2 * wa + 1 / wa), rel=1e-12)
+
+
+def test_gradients_finite_at_stations_and_equal_widths():
+    x = torch.tensor([0.0, 0.5, 1.0])
+    w = torch.tensor([0.2, 0.2, 0.2], requires_grad=True)
+    a = torch.tensor([0.0, 0.5], requires_grad=True)   # cut exactly on a station
+    b = torch.tensor([0.5, 1.0], requires_grad=True)
+    si = span_integrals(x, w, a, b)
+    grads = torch.autograd.grad(sum(v.sum() for v in si), (w, a, b))
+    for g in grads:
+        assert torch.isfinite(g).all()
