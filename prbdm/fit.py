@@ -282,7 +282,7 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         raise BadInput(f"law: must be one of {', '.join(LAWS)}, got {law!r}")
     beams = list(beams)
     bt = as_beam_tensors(beams)
-    omega_truth = torch.as_tensor(np.asarray(omega_truth, dtype=np.float64))
+    omega_truth = torch.as_tensor(np.ascontiguousarray(omega_truth, dtype=np.float64))
     if omega_truth.ndim != 2 or omega_truth.shape[0] != len(beams):
         raise BadInput(f"omega_truth: need one row of truth frequencies per beam "
                        f"({len(beams)}), got shape {tuple(omega_truth.shape)}")
