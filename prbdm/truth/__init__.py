@@ -1,0 +1,151 @@
+"""Truth: bending natural frequencies of a beam (SPEC §2), three models.
+
+``analytic``
+    uniform cantilevers only, ``cos(a) cosh(a) = -1`` (:mod:`prbdm.truth.analytic`).
+``beam``
+    Euler-Bernoulli, variable width, cubic Hermite elements (:mod:`prbdm.truth.beam`).
+``plate``
+    Kirchhoff plate on the planform, clamped at the root, Argyris triangles on an unstructured
+    half mesh; bending modes picked by their transverse participation
+    (:mod:`prbdm.truth.plate`, :mod:`prbdm.truth.modes`).
+
+>>> from prbdm.truth import bending_frequencies
+>>> res = bending_frequencies(beam, model="beam", modes=5)      # doctest: +SKIP
+>>> res.omega, res.freq_hz, res.time_s, res.all_modes, res.to_dict()   # doctest: +SKIP
+
+Every model solves in nondimensional form (x by L, frequencies by ``(t/L^2) sqrt(E/(12 rho))``),
+so a 5 MPa rubber strip and a 205 GPa steel panel get the same relative accuracy. The functions
+hold no global state and are safe to call from threads, process pools and Dask workers. This
+package imports neither torch nor matplotlib.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..errors import BadInput
+from ..geometry import Beam
+from .result import TruthResult, check_frequencies
+
+__all__ = ["bending_frequencies", "TruthResult", "MODELS", "MAX_MODES"]
+
+MODELS = ("analytic", "beam", "plate")
+#: the most modes each model may be asked for
+MAX_MODES = {"analytic": 200, "beam": 100, "plate": 30}
+#: planforms whose width varies more than this (max/min) are refused as degenerate
+MAX_WIDTH_RATIO = 1e6
+
+
+def _check_modes(model, modes):
+    if isinstance(modes, bool) or not isinstance(modes, (int, np.integer)):
+        raise BadInput(f"modes: must be an integer >= 1, got {modes!r}")
+    top = MAX_MODES[model]
+    if not 1 <= int(modes) <= top:
+        raise BadInput(f"modes: must be an integer in [1, {top}] for model {model!r}, "
+                       f"got {modes!r}")
+    return int(modes)
+
+
+def _check_beam(model, beam):
+    if not isinstance(beam, Beam):
+        raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
+    w = beam.half_width
+    ratio = float(w.max() / w.min())
+    if not math.isfinite(ratio) or ratio > MAX_WIDTH_RATIO:
+        raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model {model!r} "
+                       f"accepts at most {MAX_WIDTH_RATIO:.0e}, beyond which the planform "
+                       "degenerates into disconnected pieces")
+    L = beam.length
+    if model == "plate":
+        aspect = float(w.max() / L)
+        if aspect > 5.0:
+            raise BadInput(f"half_width: the plate model needs a half-width of at most 5 L; "
+                           f"this planform is {aspect:.3g} L wide (L = {L:.6g} m)")
+
+
+def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
+                        all_modes: bool = False, elements: int | None = None,
+                        **options) -> TruthResult:
+    """Bending natural frequencies of ``beam`` (SPEC §2).
+
+    Parameters
+    ----------
+    beam : prbdm.geometry.Beam
+    model : ``"analytic"`` (uniform beams only), ``"beam"`` or ``"plate"``
+    modes : number of bending modes R (>= 1)
+    all_modes : plate only: also solve the antisymmetric (torsional) family, so that
+        ``all_modes`` lists every mode up to the highest kept one, kept or not
+    elements : mesh resolution along the span (``None``: automatic, see docs/truth.md); beam:
+        base number of elements before the width grading; plate: ``1/h0`` for the mesh size h0
+    options : beam: ``grading`` (bool, default True); plate: ``selection`` ("section" or
+        "participation"), and the mesh options ``grade``, ``corner_ratio``, ``across``
+
+    Returns
+    -------
+    TruthResult with ``omega`` [rad/s] ascending, ``freq_hz``, ``time_s``, ``all_modes``, ...
+
+    Raises
+    ------
+    prbdm.errors.BadInput for an unknown model, invalid ``modes``, ``analytic`` on a
+    non-uniform beam, or a beam too degenerate to be solved reliably.
+    """
+    if model not in MODELS:
+        raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
+    modes = _check_modes(model, modes)
+    _check_beam(model, beam)
+    if elements is not None:
+        if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) \
+                or elements < 2:
+            raise BadInput(f"elements: must be an integer >= 2 or None, got {elements!r}")
+    # the solver modules are imported lazily (scikit-fem only when a FEM model runs); the clock
+    # starts after the imports, so time_s is the time of the solve itself
+    if model == "analytic":
+        from .analytic import beam_omega_scale, solve_analytic
+        t0 = time.perf_counter()
+        if options:
+            raise BadInput(f"model 'analytic' takes no options, got {sorted(options)}")
+        out = solve_analytic(beam, modes)
+        scale = beam_omega_scale(beam)
+        symmetric_entries = None
+    elif model == "beam":
+        from .analytic import beam_omega_scale
+        from .beam import solve_beam
+        t0 = time.perf_counter()
+        unknown = set(options) - {"grading"}
+        if unknown:
+            raise BadInput(f"model 'beam': unknown option {sorted(unknown)[0]!r}")
+        out = solve_beam(beam, modes, elements=elements, **options)
+        scale = beam_omega_scale(beam)
+        symmetric_entries = None
+    else:
+        from .modes import SELECTIONS
+        from .plate import plate_omega_scale, solve_plate
+        t0 = time.perf_counter()
+        unknown = set(options) - {"selection", "grade", "corner_ratio", "across", "smooth"}
+        if unknown:
+            raise BadInput(f"model 'plate': unknown option {sorted(unknown)[0]!r}")
+        if options.get("selection", "section") not in SELECTIONS:
+            raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
+                           f"got {options['selection']!r}")
+        try:
+            out = solve_plate(beam, modes, all_modes=all_modes, elements=elements, **options)
+        except (ValueError, ArithmeticError, RuntimeError) as exc:
+            raise BadInput(f"model 'plate': this planform cannot be solved reliably ({exc})") \
+                from None
+        scale = plate_omega_scale(beam)
+        symmetric_entries = out["entries"]
+    omega = check_frequencies(model, out["lam"], scale)
+    if symmetric_entries is None:
+        entries = [{"omega": float(o), "freq_hz": float(o / (2 * math.pi)), "lambda": float(l),
+                    "participation": float(p), "symmetry": "symmetric", "kept": True}
+                   for o, l, p in zip(omega, out["lam"], out["participation"])]
+    else:
+        entries = []
+        for e in symmetric_entries:
+            o = scale * math.sqrt(max(e["lambda"], 0.0))
+            entries.append({"omega": o, "freq_hz": o / (2 * math.pi), **e})
+    return TruthResult(model=model, omega=omega, freq_hz=omega / (2 * math.pi),
+                       time_s=time.perf_counter() - t0, all_modes=entries, mesh=out["mesh"],
+                       omega_scale=scale, shapes=out.get("shapes"))

@@ -1,0 +1,235 @@
+"""Kirchhoff plate truth on the planform, clamped along the root edge (scikit-fem).
+
+Strong form ``D lap^2 w = rho t omega^2 w`` with ``D = E t^3 / (12 (1 - nu^2))``, free edges
+everywhere but ``x = 0``. With ``xi = x / L``, ``eta = y / L`` it becomes
+
+    lap^2 w = lambda w,   omega = omega_p sqrt(lambda),   omega_p = (t/L^2) sqrt(E / (12 rho (1 - nu^2))),
+
+and the weak form, for every v with v = dv/dn = 0 on the root edge, is
+
+    a(w, v) = int (1 - nu) w_,ij v_,ij + nu lap(w) lap(v) dA = lambda int w v dA = lambda m(w, v).
+
+Element: the Argyris triangle (quintic, C1, 21 DOFs: w and its first and second derivatives at
+the vertices, the normal slope at the edge midpoints). It is conforming in H^2, so the discrete
+eigenvalues are upper bounds that converge fast; the cheap nonconforming Morley triangle
+(quadratic) converges at O(h^2) only. scikit-fem's own ``ElementTriArgyris`` loses its C1
+property on small or thin elements (ill-conditioned global-monomial construction), so we use
+:class:`prbdm.truth._argyris.LocalArgyris`, the same element built in local coordinates.
+
+Mesh: :func:`prbdm.truth._delaunay.half_planform_mesh`, an unstructured Delaunay triangulation of
+the half planform that conforms to every station exactly, graded toward the clamped-free corner
+and the re-entrant free-edge corners (singular points of the plate solution), toward short edges
+and across narrow parts, and stretched along the span for slender planforms.
+
+Half model: the planform and the material are symmetric about the x axis, so every mode is
+either symmetric (w(x, -y) = w(x, y)) or antisymmetric. Both families come from one half mesh
+(y >= 0) and one pair of matrices, with different constraints on the symmetry line y = 0:
+
+* symmetric: w_y = 0 and w_xy = 0 at the vertices, w_n = 0 at the edge midpoints;
+* antisymmetric: w = w_x = w_xx = w_yy = 0 at the vertices.
+
+These are exactly the even/odd subspaces of the Argyris space on the mirrored full mesh, so the
+half model reproduces the full model's eigenvalues at a fraction of the cost. Antisymmetric
+(torsional) modes have zero transverse participation by symmetry; they are solved only when asked
+for (``--all-modes``). Mode selection: :mod:`prbdm.truth.modes`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import eigsh, splu
+from skfem import Basis, BilinearForm, LinearForm, MeshTri
+from skfem.helpers import dd, ddot, trace
+
+from ._argyris import LocalArgyris
+from ._delaunay import half_planform_mesh
+from ._linalg import refined_inverse
+from .modes import section_fraction, select_bending
+
+__all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
+           "DEFAULT_ELEMENTS"]
+
+
+@BilinearForm
+def bending(u, v, w):
+    """a(u, v) = int (1 - nu) u_,ij v_,ij + nu lap(u) lap(v)   (Kirchhoff, per unit D)."""
+    return (1.0 - w.nu) * ddot(dd(u), dd(v)) + w.nu * trace(dd(u)) * trace(dd(v))
+
+
+@BilinearForm
+def mass(u, v, w):
+    """m(u, v) = int u v   (per unit rho t)."""
+    return u * v
+
+
+@LinearForm
+def load(v, w):
+    """f(v) = int v: the modal force of a uniform transverse acceleration."""
+    return v
+
+
+#: default span-wise resolution: element size h0 = 1 / DEFAULT_ELEMENTS (nondimensional)
+DEFAULT_ELEMENTS = 12
+#: the symmetric family is searched up to this many modes for the requested bending modes
+MAX_MODES_COMPUTED = 160
+
+
+def plate_omega_scale(beam) -> float:
+    """``omega_p = (t / L^2) sqrt(E / (12 rho (1 - nu^2)))`` = ``sqrt(D / (rho t)) / L^2``."""
+    m = beam.material
+    return beam.thickness / beam.length ** 2 * math.sqrt(m.E / (12.0 * m.rho * (1.0 - m.nu ** 2)))
+
+
+def default_elements(modes: int) -> int:
+    """Span-wise resolution for ``modes`` bending modes: the n-th bending mode has about n - 1/2
+    half-waves along the span; the default resolves five with the accuracy measured in
+    docs/truth.md, and grows with the number of modes asked for."""
+    return DEFAULT_ELEMENTS + 2 * max(0, int(modes) - 5)
+
+
+def plate_mesh(beam, elements: int | None = None, modes: int = 5, **kwargs):
+    """The half-planform mesh (nondimensional coordinates) and a description of it."""
+    n = default_elements(modes) if elements is None else int(elements)
+    L = beam.length
+    p, t, info = half_planform_mesh(beam.x / L, beam.half_width / L, h0=1.0 / n, **kwargs)
+    info["elements"] = n
+    return MeshTri(p, t), info
+
+
+def _section_operators(basis, nodes):
+    """``B[i, j] = int hat_i(x) phi_j dA`` and ``G[i, k] = int hat_i hat_k dA`` for the 1-D hat
+    functions of x on ``nodes``, by the basis's own quadrature (exact for the hats' products with
+    the quintic basis on each element up to the quadrature order)."""
+    xq = basis.mapping.F(basis.X)[0]                         # (elements, points)
+    wq = basis.dx                                            # quadrature weights * |det J|
+    nel, nqp = xq.shape
+    q = np.arange(nel * nqp)
+    x = xq.ravel()
+    k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
+    tpar = (x - nodes[k]) / (nodes[k + 1] - nodes[k])
+    H = sp.csr_matrix((np.concatenate([1 - tpar, tpar]), (np.concatenate([k, k + 1]),
+                                                          np.concatenate([q, q]))),
+                      shape=(len(nodes), nel * nqp))
+    Hw = H @ sp.diags(wq.ravel())
+    rows, cols, vals = [], [], []
+    for j in range(basis.Nbfun):
+        rows.append(q)
+        cols.append(np.repeat(basis.element_dofs[j], nqp))
+        vals.append(basis.basis[j][0].value.ravel())
+    Phi = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                        shape=(nel * nqp, basis.N))
+    return (Hw @ Phi).tocsr(), (Hw @ H.T).tocsc()
+
+
+def _rayleigh(basis, phi, nu):
+    """``a(phi, phi) / m(phi, phi)`` and ``m(phi, phi)`` for every column of ``phi``, from the
+    fields at the quadrature points."""
+    dofs = basis.element_dofs                                # (21, elements)
+    coef = phi[dofs]                                         # (21, elements, modes)
+    w = basis.dx                                             # (elements, points)
+    hxx = np.zeros((coef.shape[2],) + w.shape)
+    hxy, hyy, val = np.zeros_like(hxx), np.zeros_like(hxx), np.zeros_like(hxx)
+    for j in range(basis.Nbfun):
+        f = basis.basis[j][0]
+        c = coef[j].T[:, :, None]                            # (modes, elements, 1)
+        hxx += c * f.hess[0, 0]
+        hxy += c * f.hess[0, 1]
+        hyy += c * f.hess[1, 1]
+        val += c * f.value
+    energy = ((1 - nu) * (hxx ** 2 + 2 * hxy ** 2 + hyy ** 2) + nu * (hxx + hyy) ** 2) * w
+    kinetic = val ** 2 * w
+    m = kinetic.sum(axis=(1, 2))
+    return energy.sum(axis=(1, 2)) / m, m
+
+
+def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None = None,
+                selection: str = "section", **mesh_kwargs) -> dict:
+    nu = beam.material.nu
+    mesh, info = plate_mesh(beam, elements, modes, **mesh_kwargs)
+    # a fresh element per solve: the element caches per-mesh data on the instance
+    element = LocalArgyris()
+    basis = Basis(mesh, element)                    # degree-10 rule: exact for the mass
+    K = bending.assemble(Basis(mesh, element, intorder=6), nu=nu)   # exact for the stiffness
+    M = mass.assemble(basis)
+    f = load.assemble(basis)
+    ones = np.zeros(basis.N)
+    ones[basis.nodal_dofs[0]] = 1.0                 # the constant 1 in the Argyris basis
+    area = float(f @ ones)                          # nondimensional half area (= half mass)
+
+    ymax = float(mesh.p[1].max())
+    root = mesh.facets_satisfying(lambda x: x[0] < 1e-12)
+    axis = mesh.facets_satisfying(lambda x: x[1] < 1e-12 * max(ymax, 1.0))
+    clamped = basis.get_dofs(root).all(["u", "u_x", "u_y", "u_xy", "u_yy", "u_n"])
+    sym = basis.get_dofs(axis).all(["u_y", "u_xy", "u_n"])
+    anti = basis.get_dofs(axis).all(["u", "u_x", "u_xx", "u_yy"])
+    hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
+    B, G = _section_operators(basis, hats)
+    G_lu = splu(G)
+
+    families = {"symmetric": np.setdiff1d(np.arange(basis.N), np.union1d(clamped, sym))}
+    if all_modes:
+        families["antisymmetric"] = np.setdiff1d(np.arange(basis.N), np.union1d(clamped, anti))
+    want = int(modes)
+    found = {}
+    for name, free in families.items():
+        Kf, Mf = K[free][:, free], M[free][:, free]
+        # symmetric diagonal scaling: the Argyris DOFs (w, slopes, curvatures) scale like
+        # 1, h^-1, h^-2; D K D has a unit diagonal, the same eigenvalues with D M D, and a far
+        # smaller condition number for the sparse LU
+        d = 1.0 / np.sqrt(Kf.diagonal())
+        D = sp.diags(d)
+        Kf, Mf = (D @ Kf @ D).tocsc(), (D @ Mf @ D).tocsc()
+        op = refined_inverse(Kf)
+        n = Kf.shape[0]
+        cap = min(n - 2, MAX_MODES_COMPUTED)
+        k = min(cap, max(2 * want + 8, 16))
+        while True:
+            lam, vec = eigsh(Kf, k=k, M=Mf, sigma=0.0, which="LM", OPinv=op)
+            order = np.argsort(lam)
+            lam, vec = lam[order], vec[:, order] * d[:, None]
+            phi = np.zeros((basis.N, k))
+            phi[free] = vec
+            # Rayleigh quotients from the fields (sums of positive terms, no cancellation)
+            lam, modal_mass = _rayleigh(basis, phi, nu)
+            order = np.argsort(lam, kind="stable")
+            lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
+            if name == "antisymmetric":
+                zero = np.zeros(k)
+                found[name] = (lam, phi, zero, zero, np.zeros(k, bool))
+                break
+            part = (f @ phi) ** 2 / (modal_mass * area)
+            frac = section_fraction(B @ phi, G_lu, modal_mass)
+            kept, complete = select_bending(part, frac, want, selection)
+            if complete or k >= cap:
+                found[name] = (lam, phi, part, frac, kept)
+                break
+            k = min(cap, 2 * k)
+
+    lam_s, phi_s, part_s, frac_s, kept_s = found["symmetric"]
+    kept_idx = np.flatnonzero(kept_s)
+    if len(kept_idx) < want:
+        raise ValueError(f"found only {len(kept_idx)} bending modes among the first "
+                         f"{len(lam_s)} symmetric modes")
+    entries = []
+    for name, (lam, phi, part, frac, kept) in found.items():
+        for i in range(len(lam)):
+            entries.append({"lambda": float(lam[i]), "participation": float(part[i]),
+                            "section_fraction": float(frac[i]), "symmetry": name,
+                            "kept": bool(kept[i])})
+    entries.sort(key=lambda e: e["lambda"])
+    if all_modes:
+        # the two families were computed to different heights: list the modes up to the
+        # highest eigenvalue both reached (and every kept one), so that no mode is missing
+        top = min(found["symmetric"][0][-1], found["antisymmetric"][0][-1])
+        entries = [e for e in entries if e["lambda"] <= top * (1 + 1e-12) or e["kept"]]
+    values = phi_s[basis.nodal_dofs[0]][:, kept_idx]
+    scale = values[np.argmax(np.abs(values), axis=0), np.arange(len(kept_idx))]
+    scale[scale == 0] = 1.0
+    info.update({"element": "Argyris triangle (C1 quintic), half model",
+                 "dofs": int(basis.N), "triangles": int(mesh.t.shape[1]),
+                 "symmetric_modes_computed": int(len(lam_s)), "selection": selection})
+    return {"lam": lam_s[kept_idx], "participation": part_s[kept_idx], "entries": entries,
+            "shapes": {"kind": "plate", "p": mesh.p, "t": mesh.t, "w": (values / scale).T},
+            "mesh": info}
