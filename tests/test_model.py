@@ -22,19 +22,20 @@ from prbdm.geometry import Beam, Material, random_beam
 
 @pytest.fixture(autouse=True)
 def _float64():
-    """float64 for every tensor made in these tests, restored afterwards (no leak to other files)."""
+    """float64 for every tensor made in these tests, restored afterwards (no leak elsewhere)."""
     old = torch.get_default_dtype()
     torch.set_default_dtype(torch.float64)
     yield
     torch.set_default_dtype(old)
 
 # torch.func.jvp scripts its decompositions on first use, which warns in torch >= 2.10
-pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit.script` is deprecated")
+pytestmark = pytest.mark.filterwarnings(
+    "ignore:`torch.jit.script` is deprecated")
 
 ALPHA = np.array([1.87510407, 4.69409113, 7.85475744])  # cos a cosh a = -1
 
 
-# ----------------------------------------------------------------------------- independent kinematics
+# --------------------------------------------------------------------------- independent kinematics
 def _rot(a):
     c, s = torch.cos(a), torch.sin(a)
     z, o = torch.zeros_like(a), torch.ones_like(a)

@@ -13,7 +13,7 @@ from prbdm.sections import span_integrals
 
 @pytest.fixture(autouse=True)
 def _float64():
-    """float64 for every tensor made in these tests, restored afterwards (no leak to other files)."""
+    """float64 for every tensor made in these tests, restored afterwards (no leak elsewhere)."""
     old = torch.get_default_dtype()
     torch.set_default_dtype(torch.float64)
     yield

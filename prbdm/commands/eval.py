@@ -1,4 +1,6 @@
-"""``prbdm eval BEAM --gamma g0,...,gn --k k1,...,km``: eigenfrequencies of a given PRBDM (SPEC §3-4).
+"""``prbdm eval BEAM --gamma g0,...,gn --k k1,...,km``: eigenfrequencies of a given PRBDM.
+
+SPEC §3 (the model) and §4 (the command line).
 
 The PRBDM is given, not fitted: link-length fractions ``gamma`` (n + 1 values summing to 1), one
 stiffness correction factor per pose (``--k``, or a single value for every pose), a stiffness law
@@ -120,8 +122,9 @@ def evaluate(beam, gamma, k_text, poses_spec, law):
 
 
 UNITS = {"omega": "rad/s", "freq_hz": "Hz", "poses": "rad", "joint_x": "m", "length": "m",
-         "mass": "kg", "com": "m from the link's joint", "inertia": "kg m^2 about the centre of mass",
-         "area_moment": "m^4", "base_stiffness": "N m/rad"}
+         "mass": "kg", "com": "m from the link's joint",
+         "inertia": "kg m^2 about the centre of mass", "area_moment": "m^4",
+         "base_stiffness": "N m/rad"}
 
 
 def run(args) -> int:
@@ -155,8 +158,8 @@ def run(args) -> int:
 def render(r: dict, poses_label: str) -> str:
     b, L = r["beam"], r["links"]
     n = r["n"]
-    lines = [f"beam: {b['name'] or '(unnamed)'}  L = {b['length']:.6g} m, t = {b['thickness']:.6g} m, "
-             f"mass = {b['mass']:.6g} kg, {b['stations']} stations",
+    lines = [f"beam: {b['name'] or '(unnamed)'}  L = {b['length']:.6g} m, "
+             f"t = {b['thickness']:.6g} m, mass = {b['mass']:.6g} kg, {b['stations']} stations",
              f"PRBDM: {n}R, law {r['law']}, {len(r['poses'])} pose(s) ({poses_label})",
              f"gamma: {', '.join(f'{g:.6g}' for g in r['gamma'])}",
              "", "links (SI; centre of mass measured from the link's joint):"]
