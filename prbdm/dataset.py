@@ -21,12 +21,12 @@ How it works, in the order of this file:
 3. **Storage.** Records are buffered by the parent process and written as a part file, atomically
    (temporary file, then rename), every ``part_size`` records or ``flush_s`` seconds. A kill -9 at
    any moment loses at most the buffered records, never leaves a half-written part.
-4. **Resume.** :func:`generate` takes a lock on the folder, reads the ``index`` column of every part,
-   and labels only the missing indices of ``range(count)``. No index is computed twice or lost.
-5. **Execution.** A local process pool by default (spawned workers, one thread each, torch only in
+4. **Execution.** A local process pool by default (spawned workers, one thread each, torch only in
    the workers); ``scheduler=`` sends the same tasks to a Dask distributed cluster (an address, or
    ``"local"`` for a LocalCluster). Results come back to the parent, which alone writes the folder,
    so the workers need no shared file system.
+5. **Resume.** :func:`generate` takes a lock on the folder, reads the ``index`` column of every part,
+   and labels only the missing indices of ``range(count)``. No index is computed twice or lost.
 6. **Summary.** :func:`info` counts records, failures, the loss distribution and time per beam.
 """
 from __future__ import annotations
@@ -167,6 +167,7 @@ COLUMNS = {
     "fit_time_s": ("double", "wall time of the fit [s]"),
     "fit_seed": ("int64", "seed given to the fit's multistart"),
     "time_s": ("double", "wall time to label the beam, all stages [s]"),
+    "cpu_s": ("double", "CPU time of the labelling thread [s]: 1 / cpu_s is the rate of a free core"),
     "worker": ("string", "host:pid that labelled it"),
 }
 
@@ -202,7 +203,7 @@ def label_beam(index: int, spec: dict) -> dict:
     Never raises for a beam that fails: the record gets ``status = "error"`` and ``error`` set to
     ``"stage: ExceptionType: message"`` (stage is beam, truth or fit). Runs torch on one thread.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     rec = {"index": int(index), "status": "error", "error": None,
            "worker": f"{socket.gethostname()}:{os.getpid()}"}
     stage = "beam"
@@ -236,6 +237,7 @@ def label_beam(index: int, spec: dict) -> dict:
     except Exception as exc:  # noqa: BLE001 - failure isolation: record it, go on
         rec["error"] = _error_text(stage, exc)
     rec["time_s"] = time.perf_counter() - t0
+    rec["cpu_s"] = time.thread_time() - c0
     return rec
 
 
@@ -433,7 +435,7 @@ def _remove_temporaries(out: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
-# ====================================================================== 5. execution
+# ====================================================================== 4. execution
 
 _THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
@@ -471,7 +473,13 @@ def _init_worker() -> None:
     threading.Thread(target=watch, name="prbdm-parent-watch", daemon=True).start()
 
 
-def _worker_ready() -> dict:
+def _worker_ready(warm: bool = False) -> dict:
+    """Start-up probe; ``warm`` imports the truth and fit (torch) now, so that start-up time is
+    not charged to the first beams."""
+    if warm:
+        from . import fit, truth  # noqa: F401
+
+        _torch_one_thread()
     return {"pid": os.getpid(), "host": socket.gethostname(), "prbdm": __version__}
 
 
@@ -491,7 +499,8 @@ def _run_pool(indices, spec, labeller, workers, scheduler):
         pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                    initializer=_init_worker)
         try:
-            for f in [pool.submit(_worker_ready) for _ in range(workers)]:
+            warm = labeller is label_beam
+            for f in [pool.submit(_worker_ready, warm) for _ in range(workers)]:
                 f.result()
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
@@ -549,7 +558,7 @@ def _run_dask(indices, spec, labeller, workers, scheduler):
     try:
         try:
             client.wait_for_workers(1, timeout=120)
-            client.submit(_worker_ready, pure=False).result(timeout=300)
+            client.submit(_worker_ready, labeller is label_beam, pure=False).result(timeout=300)
         except Exception as exc:  # noqa: BLE001
             raise BadInput(f"--scheduler: the cluster cannot run prbdm tasks ({type(exc).__name__}:"
                            f" {exc}); are workers up, with prbdm installed?") from None
@@ -609,11 +618,15 @@ class _Progress:
         self.mode, self.total, self.initial, self.n, self.errors = mode, total, initial, 0, 0
         self.every, self.t0, self.last = every, time.monotonic(), time.monotonic()
         self.bar = None
-        if mode == "bar":
+
+    def start(self) -> None:
+        """The workers are ready: rates and ETA count from now."""
+        self.t0 = self.last = time.monotonic()
+        if self.mode == "bar":
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, initial=initial, unit="beam", file=self.stream,
-                            dynamic_ncols=True, smoothing=0.05)
+            self.bar = tqdm(total=self.total, initial=self.initial, unit="beam",
+                            file=self.stream, dynamic_ncols=True, smoothing=0.05)
 
     def log(self, text: str) -> None:
         if self.mode == "none":
@@ -648,7 +661,7 @@ class _Progress:
             self.bar.close()
 
 
-# ====================================================================== 4. generate (and resume)
+# ====================================================================== 5. generate (and resume)
 
 def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=None,
              part_size: int = PART_SIZE, flush_s: float = FLUSH_S, progress: str = "auto",
@@ -734,6 +747,7 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
                 meter.log(f"{len(todo)} beams to label ({int(count) - len(todo)} already in "
                           f"{out}), {where['workers']} workers ({where['where']}, ready in "
                           f"{t_ready - t_start:.1f} s)")
+                meter.start()
             for rec in results:
                 buffer.append(rec)
                 run["errors"] += rec.get("status") != "ok"
@@ -803,7 +817,7 @@ def info(out) -> dict:
     if not out.is_dir():
         raise BadInput(f"DIR: no such folder {str(out)!r}")
     manifest = read_manifest(out)
-    cols = ["index", "status", "error", "loss_percent", "gamma_spread", "time_s",
+    cols = ["index", "status", "error", "loss_percent", "gamma_spread", "time_s", "cpu_s",
             "truth_time_s", "fit_time_s"]
     parts = part_files(out)
     tables = [pq.read_table(p, columns=cols) for p in parts]
@@ -831,6 +845,7 @@ def info(out) -> dict:
         "loss_percent": _quantiles(d["loss_percent"][i] for i in ok),
         "gamma_spread": _quantiles(d["gamma_spread"][i] for i in ok),
         "time_per_beam_s": _quantiles(d["time_s"]),
+        "cpu_per_beam_s": _quantiles(d["cpu_s"]),
         "truth_time_s": _quantiles(d["truth_time_s"]),
         "fit_time_s": _quantiles(d["fit_time_s"]),
         "parts": len(parts), "bytes": int(sum(p.stat().st_size for p in parts)),

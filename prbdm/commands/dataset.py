@@ -123,7 +123,8 @@ def _info(args) -> int:
         print(f"  {n:6d}  {kind}")
     rows = []
     for label, key in (("loss [%]", "loss_percent"), ("gamma spread", "gamma_spread"),
-                       ("time per beam [s]", "time_per_beam_s"), ("truth time [s]", "truth_time_s"),
+                       ("time per beam [s]", "time_per_beam_s"),
+                       ("CPU per beam [s]", "cpu_per_beam_s"), ("truth time [s]", "truth_time_s"),
                        ("fit time [s]", "fit_time_s")):
         q = s[key]
         rows.append([label] + [_fmt(q, k) for k in ("mean", "median", "p95", "max")])
