@@ -123,7 +123,8 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         from .modes import SELECTIONS
         from .plate import plate_omega_scale, solve_plate
         t0 = time.perf_counter()
-        unknown = set(options) - {"selection", "grade", "corner_ratio", "across", "smooth"}
+        unknown = set(options) - {"selection", "mesher", "grade", "corner_ratio", "across",
+                                   "smooth", "kappa", "chord_elements"}
         if unknown:
             raise BadInput(f"model 'plate': unknown option {sorted(unknown)[0]!r}")
         if options.get("selection", "section") not in SELECTIONS:

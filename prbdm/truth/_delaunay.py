@@ -8,8 +8,10 @@ mapped mesh) degenerates into slivers. Here the stations are only boundary verti
 interior is meshed freely:
 
 1. a size function ``h(p)``: ``h0`` in general; graded linearly (``h_c + grade * r``) toward the
-   clamped-free corner, toward re-entrant free-edge corners (both singular points of the plate
-   solution) and toward short free-edge segments; and at most ``across * w(x)`` so that narrow
+   clamped-free corner (``h_c = corner_ratio * h0``), toward re-entrant free-edge corners (both
+   singular points of the plate solution; ``h_c`` falls from ``corner_ratio * h0`` at 180 degrees
+   to ``corner_ratio^1.5 * h0`` at a crack-like 360-degree notch) and toward short free-edge
+   segments; never below ``H_FLOOR`` (smaller elements only ruin the conditioning); and at most ``across * w(x)`` so that narrow
    parts get elements across their width;
 2. points: the boundary walked at the local size, and quadtree-like lattices (spacing ``h0 / 2^l``)
    inside, each lattice point kept where the local size asks for that level and away from the
@@ -27,6 +29,12 @@ import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
 __all__ = ["half_planform_mesh"]
+
+#: largest stretch: equilateral triangles stretched by s have a largest angle of
+#: 180 - 2 atan(sqrt(3) / s) degrees (133 at s = 4), beyond which accuracy degrades
+MAX_STRETCH = 4.0
+#: smallest element size (nondimensional, stretched coordinates)
+H_FLOOR = 1e-4
 
 
 def _polygon(xs, ws):
@@ -51,7 +59,7 @@ def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across
     # the stretch for slender planforms: mean half-width -> about 2 elements across
     mean_w = float(np.sum(np.diff(xs) * 0.5 * (ws[1:] + ws[:-1])))
     if stretch is None:
-        stretch = float(np.clip(2.0 * h0 / mean_w, 1.0, 1e4))
+        stretch = float(np.clip(2.0 * h0 / mean_w, 1.0, MAX_STRETCH))
     s = stretch
     W = ws * s                                              # stretched half-widths
     verts, kinds = _polygon(xs, W)
@@ -65,27 +73,36 @@ def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across
     for k in range(1, len(xs) - 1):
         a, v, b = np.array([xs[k - 1], W[k - 1]]), np.array([xs[k], W[k]]), np.array([xs[k + 1], W[k + 1]])
         seg = min(np.hypot(*(v - a)), np.hypot(*(b - v)))
-        # turn: the polygon runs tip -> root along the free edge (counter-clockwise), so at
-        # (x_k, w_k) it comes from b and goes to a
-        d1, d2 = v - b, a - v
-        cross = d1[0] * d2[1] - d1[1] * d2[0]
-        reentrant = cross < -1e-12 * (np.hypot(*d1) * np.hypot(*d2))
-        size = min(hc if reentrant else h0, max(seg, 1e-9))
+        # interior (material) angle: the polygon runs counter-clockwise, tip -> root along the
+        # free edge, so at (x_k, w_k) it comes from station k+1 and goes to station k-1; angles
+        # in physical (unstretched) coordinates
+        d1 = np.array([xs[k] - xs[k + 1], ws[k] - ws[k + 1]])
+        d2 = np.array([xs[k - 1] - xs[k], ws[k - 1] - ws[k]])
+        turn = np.arctan2(d1[0] * d2[1] - d1[1] * d2[0], d1 @ d2)
+        angle = np.pi - turn
+        if angle > np.pi * (1 + 1e-9):
+            # re-entrant corner: singular moments, the sharper the stronger; the corner size
+            # falls from corner_ratio * h0 at 180 degrees to corner_ratio^1.5 * h0 at 360
+            # (a crack)
+            size = min(h0 * corner_ratio ** (1.0 + 0.5 * (angle - np.pi) / np.pi),
+                       max(seg, 1e-9))
+        else:
+            size = min(h0, max(seg, 1e-9))
         sources.append((v, size))
     for k in (0, len(xs) - 1):                              # root-top and tip-top vertices
         seg = np.hypot(xs[1] - xs[0], W[1] - W[0]) if k == 0 else np.hypot(xs[-1] - xs[-2], W[-1] - W[-2])
         sources.append((np.array([xs[k], W[k]]), min(h0, max(seg, 1e-9))))
     src_p = np.array([p for p, _ in sources])
-    src_h = np.array([h for _, h in sources])
+    src_h = np.maximum(np.array([h for _, h in sources]), H_FLOOR)
 
     def size(p):
         p = np.atleast_2d(p)
         d = np.sqrt(((p[:, None, :] - src_p[None]) ** 2).sum(-1))
         h = np.min(src_h[None] + grade * d, axis=1)
         wloc = np.interp(p[:, 0], xs, W)
-        return np.minimum(np.minimum(h, h0), np.maximum(across * wloc, 1e-9))
+        return np.minimum(np.minimum(h, h0), np.maximum(across * wloc, H_FLOOR))
 
-    hmin = float(min(src_h.min(), across * W.min()))
+    hmin = float(max(min(src_h.min(), across * W.min()), H_FLOOR))
 
     # ---- boundary points
     bpts = []

@@ -13,7 +13,7 @@ Everything here works in nondimensional coordinates: ``xi = x / L`` in [0, 1] an
   ``h(x) <= kappa * w(x) / |w'(x)|``. A 100:1 taper over 1 % of the span then gets
   ``ln(100) / ln(1 + kappa)`` elements (12 for ``kappa = 0.5``) instead of none, and a sharp waist
   or a near-zero width is refined automatically rather than missed,
-* are never closer than ``h_min`` (see :data:`H_MIN`).
+* are never closer than ``h_min (w / w_max)^(1/3)`` (see :data:`H_MIN`).
 """
 from __future__ import annotations
 
@@ -21,15 +21,17 @@ import math
 
 import numpy as np
 
-#: smallest element (nondimensional): stations closer than this are merged into one node
-#: (the width is still integrated from the exact planform at the quadrature points) and the
-#: width grading stops at this size. Smaller elements only ruin the conditioning: a 1e-6 element
-#: makes K span 1e18 and the lowest modes drown in rounding.
+#: smallest element (nondimensional) where the width is the largest: the floor is
+#: ``H_MIN * (w / w_max)^(1/3)``, so that no element is stiffer (``beta / h^3``) than
+#: ``1 / H_MIN^3``. Stations closer than the floor are merged into one node (the width is still
+#: integrated from the exact planform at the quadrature points) and the width grading stops
+#: there. Stiffer elements only ruin the conditioning: a 1e-5 element at full width makes K
+#: span 1e15 and the lowest modes drown in rounding.
 H_MIN = 1e-4
 
 
 def span_nodes(xs: np.ndarray, ws: np.ndarray, h0: float, kappa: float | None = 0.5,
-               h_min: float = H_MIN) -> np.ndarray:
+               h_min: float | None = None) -> np.ndarray:
     """Node positions in [0, 1] (sorted, first 0, last 1) for stations ``xs`` (nondimensional,
     ``xs[0] = 0``, ``xs[-1] = 1``) and half-widths ``ws`` at them.
 
@@ -37,24 +39,28 @@ def span_nodes(xs: np.ndarray, ws: np.ndarray, h0: float, kappa: float | None = 
     """
     xs = np.asarray(xs, dtype=float)
     ws = np.asarray(ws, dtype=float)
-    h_min = min(h_min, h0)
-    # stations to honour: merge stations closer than h_min (they would make tiny elements)
+    h_min = min(H_MIN if h_min is None else h_min, h0)
+    beta = ws / ws.max()
+    # stations to honour: merge stations closer than the local floor (they would make tiny,
+    # very stiff elements)
     keep = [0]
     for k in range(1, len(xs)):
-        if xs[k] - xs[keep[-1]] >= h_min:
+        floor = h_min * max(beta[k], beta[keep[-1]]) ** (1.0 / 3.0)
+        if xs[k] - xs[keep[-1]] >= floor:
             keep.append(k)
     if keep[-1] != len(xs) - 1:  # the tip always stays, replacing the last kept station
         keep[-1] = len(xs) - 1
     pieces = [np.array([0.0])]
     for a, b in zip(keep[:-1], keep[1:]):
         # the width is piecewise linear between the original stations a..b (merged ones inside)
-        pieces.append(_segment_nodes(xs[a:b + 1], ws[a:b + 1], h0, kappa, h_min)[1:])
+        pieces.append(_segment_nodes(xs[a:b + 1], ws[a:b + 1], h0, kappa, h_min,
+                                     float(ws.max()))[1:])
     nodes = np.concatenate(pieces)
     nodes[0], nodes[-1] = 0.0, 1.0
     return nodes
 
 
-def _segment_nodes(xs, ws, h0, kappa, h_min):
+def _segment_nodes(xs, ws, h0, kappa, h_min, wmax):
     """Nodes on [xs[0], xs[-1]] with density max(1/h0, |w'| / (kappa w))."""
     xa, xb = float(xs[0]), float(xs[-1])
     length = xb - xa
@@ -77,7 +83,10 @@ def _segment_nodes(xs, ws, h0, kappa, h_min):
     # (sample intervals never straddle a station, so w is linear on each)
     w = np.maximum(np.interp(x, xs, ws), 1e-300)
     graded = np.abs(np.log(w[1:] / w[:-1])) / kappa
-    count = np.maximum(np.diff(x) / h0, np.minimum(graded, np.diff(x) / h_min))
+    # the floor scales like beta^(1/3): no element stiffer (beta / h^3) than 1 / h_min^3
+    wmid = np.maximum(w[1:], w[:-1]) / wmax
+    floor = h_min * wmid ** (1.0 / 3.0)
+    count = np.maximum(np.diff(x) / h0, np.minimum(graded, np.diff(x) / floor))
     cum = np.concatenate([[0.0], np.cumsum(count)])
     n = max(1, math.ceil(cum[-1] - 1e-9))
     levels = np.linspace(0.0, cum[-1], n + 1)

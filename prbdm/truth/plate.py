@@ -45,6 +45,7 @@ from skfem.helpers import dd, ddot, trace
 
 from ._argyris import LocalArgyris
 from ._delaunay import half_planform_mesh
+from ._mapped import is_benign, mapped_half_mesh
 from ._linalg import refined_inverse
 from .modes import section_fraction, select_bending
 
@@ -89,11 +90,31 @@ def default_elements(modes: int) -> int:
     return DEFAULT_ELEMENTS + 2 * max(0, int(modes) - 5)
 
 
-def plate_mesh(beam, elements: int | None = None, modes: int = 5, **kwargs):
-    """The half-planform mesh (nondimensional coordinates) and a description of it."""
+def plate_mesh(beam, elements: int | None = None, modes: int = 5, mesher: str = "auto",
+               **kwargs):
+    """The half-planform mesh (nondimensional coordinates) and a description of it.
+
+    ``mesher``: ``"mapped"`` (structured, for planforms whose free edge stays within 45 degrees
+    of the span and whose stations are not much closer than an element), ``"delaunay"``
+    (unstructured, for anything) or ``"auto"`` (mapped when it is suitable).
+    """
     n = default_elements(modes) if elements is None else int(elements)
     L = beam.length
-    p, t, info = half_planform_mesh(beam.x / L, beam.half_width / L, h0=1.0 / n, **kwargs)
+    xs, ws = beam.x / L, beam.half_width / L
+    if mesher == "auto":
+        mesher = "mapped" if is_benign(xs, ws, 1.0 / n) else "delaunay"
+    # each mesher takes its own options and ignores the other's
+    mapped_keys = {"kappa", "root_levels", "root_ratio", "edge_ratio", "chord_elements"}
+    if mesher == "mapped":
+        p, t, info = mapped_half_mesh(xs, ws, h0=1.0 / n,
+                                      **{k: v for k, v in kwargs.items() if k in mapped_keys})
+    elif mesher == "delaunay":
+        p, t, info = half_planform_mesh(xs, ws, h0=1.0 / n,
+                                        **{k: v for k, v in kwargs.items()
+                                           if k not in mapped_keys})
+        info["mesher"] = "delaunay"
+    else:
+        raise ValueError(f"unknown mesher {mesher!r}")
     info["elements"] = n
     return MeshTri(p, t), info
 
@@ -117,7 +138,7 @@ def _section_operators(basis, nodes):
     for j in range(basis.Nbfun):
         rows.append(q)
         cols.append(np.repeat(basis.element_dofs[j], nqp))
-        vals.append(basis.basis[j][0].value.ravel())
+        vals.append(np.asarray(basis.basis[j][0]).ravel())
     Phi = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                         shape=(nel * nqp, basis.N))
     return (Hw @ Phi).tocsr(), (Hw @ H.T).tocsc()
@@ -125,23 +146,20 @@ def _section_operators(basis, nodes):
 
 def _rayleigh(basis, phi, nu):
     """``a(phi, phi) / m(phi, phi)`` and ``m(phi, phi)`` for every column of ``phi``, from the
-    fields at the quadrature points."""
-    dofs = basis.element_dofs                                # (21, elements)
-    coef = phi[dofs]                                         # (21, elements, modes)
-    w = basis.dx                                             # (elements, points)
-    hxx = np.zeros((coef.shape[2],) + w.shape)
-    hxy, hyy, val = np.zeros_like(hxx), np.zeros_like(hxx), np.zeros_like(hxx)
-    for j in range(basis.Nbfun):
-        f = basis.basis[j][0]
-        c = coef[j].T[:, :, None]                            # (modes, elements, 1)
-        hxx += c * f.hess[0, 0]
-        hxy += c * f.hess[0, 1]
-        hyy += c * f.hess[1, 1]
-        val += c * f.value
+    fields at the quadrature points (a sum of positive terms: no cancellation)."""
+    nb = basis.Nbfun
+    # per element: the 21 local basis functions' value and Hessian at the points, (nel, 21, 4q)
+    F = np.stack([np.concatenate([np.asarray(basis.basis[j][0]), basis.basis[j][0].hess[0, 0],
+                                  basis.basis[j][0].hess[0, 1], basis.basis[j][0].hess[1, 1]],
+                                 axis=1) for j in range(nb)], axis=1)
+    coef = np.transpose(phi[basis.element_dofs], (1, 2, 0))     # (nel, modes, 21)
+    fields = coef @ F                                            # (nel, modes, 4q)
+    q = basis.dx.shape[1]
+    val, hxx, hxy, hyy = (fields[:, :, i * q:(i + 1) * q] for i in range(4))
+    w = basis.dx[:, None, :]
     energy = ((1 - nu) * (hxx ** 2 + 2 * hxy ** 2 + hyy ** 2) + nu * (hxx + hyy) ** 2) * w
-    kinetic = val ** 2 * w
-    m = kinetic.sum(axis=(1, 2))
-    return energy.sum(axis=(1, 2)) / m, m
+    m = (val ** 2 * w).sum(axis=(0, 2))
+    return energy.sum(axis=(0, 2)) / m, m
 
 
 def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None = None,
@@ -186,7 +204,8 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
         cap = min(n - 2, MAX_MODES_COMPUTED)
         k = min(cap, max(2 * want + 8, 16))
         while True:
-            lam, vec = eigsh(Kf, k=k, M=Mf, sigma=0.0, which="LM", OPinv=op)
+            lam, vec = eigsh(Kf, k=k, M=Mf, sigma=0.0, which="LM", OPinv=op,
+                             v0=np.ones(Kf.shape[0]))
             order = np.argsort(lam)
             lam, vec = lam[order], vec[:, order] * d[:, None]
             phi = np.zeros((basis.N, k))

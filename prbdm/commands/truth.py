@@ -1,0 +1,147 @@
+"""``prbdm truth BEAM --model analytic|beam|plate [--modes R] [--all-modes] [--json] [--plot FILE]``
+
+Bending natural frequencies of a beam (SPEC §2, §4). Prints a table by default; ``--json`` prints
+one JSON object (``model``, ``omega``, ``freq_hz``, ``time_s``, ``participation``, ``mesh`` and,
+with ``--all-modes``, ``all_modes``: every computed mode with its ``participation``). ``--plot``
+draws the planform and the kept mode shapes (the idea of the paper's Fig. 13). Never imports torch.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ..errors import BadInput
+from ._common import add_beam_argument, positive_int, print_json, table
+
+
+def add_arguments(parser):
+    add_beam_argument(parser)
+    parser.add_argument("--model", choices=("analytic", "beam", "plate"), default="beam",
+                        help="analytic (uniform beams), beam (Euler-Bernoulli FEM, default) or "
+                             "plate (Kirchhoff plate FEM)")
+    parser.add_argument("--modes", type=positive_int(1), default=5, metavar="R",
+                        help="number of bending modes (default 5)")
+    parser.add_argument("--all-modes", action="store_true",
+                        help="list every computed mode with its transverse participation, "
+                             "symmetry and whether it was kept (plate: also solves the "
+                             "antisymmetric family)")
+    parser.add_argument("--elements", type=positive_int(2), default=None, metavar="N",
+                        help="mesh resolution along the span (default: automatic)")
+    parser.add_argument("--selection", choices=("section", "participation"), default=None,
+                        help="plate: bending-mode rule (default section; participation = the "
+                             "paper's highest-participation rule)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--plot", metavar="FILE", default=None,
+                        help="save a figure of the planform and the kept mode shapes "
+                             "(needs matplotlib; format from the extension, e.g. .png, .pdf)")
+
+
+def run(args) -> int:
+    from ..geometry import load_beam
+    from ..truth import bending_frequencies
+
+    beam = load_beam(args.beam)
+    options = {}
+    if args.selection is not None:
+        if args.model != "plate":
+            raise BadInput("--selection: applies to --model plate only")
+        options["selection"] = args.selection
+    if args.plot is not None:
+        _check_plot_path(args.plot)
+    res = bending_frequencies(beam, model=args.model, modes=args.modes,
+                              all_modes=args.all_modes, elements=args.elements, **options)
+    if args.plot is not None:
+        plot_modes(beam, res, args.plot)
+    if args.json:
+        print_json(res.to_dict(all_modes=args.all_modes))
+        return 0
+    print(_report(beam, res, args.all_modes))
+    return 0
+
+
+def _check_plot_path(path):
+    p = Path(path)
+    if p.suffix.lower() not in (".png", ".pdf", ".svg", ".jpg", ".jpeg"):
+        raise BadInput(f"--plot: unsupported file type {p.suffix!r}; use .png, .pdf, .svg or .jpg")
+    if p.parent != Path("") and not p.parent.is_dir():
+        raise BadInput(f"--plot: no such directory {str(p.parent)!r}")
+
+
+def _report(beam, res, all_modes: bool) -> str:
+    name = f" {beam.name!r}" if beam.name else ""
+    mesh = res.mesh
+    if res.model == "analytic":
+        how = "closed form"
+    elif res.model == "beam":
+        how = f"{mesh['elements']} Hermite elements"
+    else:
+        how = f"{mesh['triangles']} Argyris triangles ({mesh['mesher']}), {mesh['dofs']} DOFs"
+    lines = [f"beam{name}: L = {beam.length:.6g} m, t = {beam.thickness:.6g} m, "
+             f"E = {beam.material.E:.6g} Pa, rho = {beam.material.rho:.6g} kg/m^3",
+             f"model {res.model}: {how}, {res.time_s * 1e3:.1f} ms", ""]
+    kept = [m for m in res.all_modes if m["kept"]]
+    rows = [(i + 1, f"{m['omega']:.6g}", f"{m['freq_hz']:.6g}", f"{m['participation']:.4f}")
+            for i, m in enumerate(kept)]
+    lines.append(table(rows, ("mode", "omega [rad/s]", "f [Hz]", "participation")))
+    if all_modes:
+        lines += ["", "all computed modes:"]
+        rows = []
+        for m in res.all_modes:
+            frac = m.get("section_fraction")
+            rows.append((f"{m['freq_hz']:.6g}", m["symmetry"], f"{m['participation']:.4f}",
+                         "" if frac is None else f"{frac:.3f}", "kept" if m["kept"] else ""))
+        lines.append(table(rows, ("f [Hz]", "symmetry", "participation", "section frac.",
+                                  "bending")))
+    return "\n".join(lines)
+
+
+def plot_modes(beam, res, path) -> None:
+    """Planform and kept mode shapes, one panel each, titled with the frequency."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    shapes = res.shapes or {}
+    n = len(res.omega)
+    cols = min(3, n + 1)
+    rows = math.ceil((n + 1) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
+    axes = axes.ravel()
+    L = beam.length
+    xs = np.concatenate([beam.x, beam.x[::-1], beam.x[:1]])
+    ys = np.concatenate([beam.half_width, -beam.half_width[::-1], beam.half_width[:1]])
+    ax = axes[0]
+    ax.fill(xs, ys, color="0.85", edgecolor="k", lw=1)
+    ax.plot([0, 0], [-beam.half_width[0], beam.half_width[0]], color="k", lw=4)
+    ax.set_aspect("equal")
+    ax.set_title(f"planform ({res.model}), clamped at x = 0", fontsize=9)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    for i in range(n):
+        ax = axes[i + 1]
+        title = f"mode {i + 1}: {res.freq_hz[i]:.4g} Hz"
+        if shapes.get("kind") == "plate":
+            p, t, w = shapes["p"] * L, shapes["t"], shapes["w"][i]
+            # mirror the half model (symmetric modes)
+            P = np.hstack([p, p * np.array([[1.0], [-1.0]])])
+            T = np.hstack([t, t[[0, 2, 1]] + p.shape[1]])
+            W = np.concatenate([w, w])
+            tc = ax.tripcolor(P[0], P[1], T.T, W, shading="gouraud", cmap="RdBu_r",
+                              vmin=-1, vmax=1)
+            ax.tricontour(P[0], P[1], T.T, W, levels=[0.0], colors="k", linewidths=0.6)
+            ax.set_aspect("equal")
+            ax.set_xlabel("x [m]")
+            if i == n - 1:
+                fig.colorbar(tc, ax=ax, shrink=0.8, label="w / max|w|")
+        else:
+            ax.plot(shapes["x"] * L, shapes["w"][i], color="C0")
+            ax.axhline(0.0, color="0.6", lw=0.6)
+            ax.set_xlabel("x [m]")
+            ax.set_ylabel("w / max|w|")
+        ax.set_title(title, fontsize=9)
+    for ax in axes[n + 1:]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
