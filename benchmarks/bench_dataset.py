@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     ap.add_argument("--plate-count", type=int, default=None,
                     help="beams per plate case (default: --count)")
     ap.add_argument("--joints", type=int, default=4, help="n (default 4)")
-    ap.add_argument("--starts", type=int, default=None, help="fit starts (default: fit default)")
+    ap.add_argument("--starts", type=int, default=None, help="fit starts (default 64)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="one JSON line per case, no table")
     args = ap.parse_args(argv)
@@ -75,9 +75,10 @@ def main(argv=None) -> int:
                 print(f"  {truth} truth, {w} worker(s): {r['beams_per_s']:.2f} beams/s",
                       file=sys.stderr, flush=True)
     if not args.json:
+        from prbdm import dataset as D
         from prbdm.commands._common import table
 
-        print(f"n = {args.joints}, starts = {args.starts or 'default'}, "
+        print(f"n = {args.joints}, starts = {args.starts or D.DEFAULT_STARTS}, "
               f"{os.cpu_count()} cores visible, load average before {load0:.2f}")
         print(table([[r["truth"], r["workers"], r["beams"], r["errors"], f"{r['startup_s']:.1f}",
                       f"{r['beams_per_s']:.2f}", f"{r['per_worker']:.2f}",

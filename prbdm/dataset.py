@@ -60,6 +60,9 @@ LAWS = ("beam", "paper")
 #: default number of records per part file, and the longest a record waits in memory [s]
 PART_SIZE = 256
 FLUSH_S = 60.0
+#: fit multistart points when --starts is not given: prbdm.fit.DEFAULT_STARTS when this was
+#: written (not imported, to keep torch out of the parent); a spec records the number it used
+DEFAULT_STARTS = 64
 
 
 # ====================================================================== 1. the spec
@@ -78,7 +81,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
     with ``truth_modes = max(modes, joints) + 1`` modes (all stored). ``poses`` is ``"paper"``,
-    ``"linear"`` or a list of joint angles [rad]. ``starts=None`` takes the fit's default.
+    ``"linear"`` or a list of joint angles [rad]. ``starts=None`` means :data:`DEFAULT_STARTS`.
     """
     def integer(name, v, lo):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
@@ -101,8 +104,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
         poses = [float(t) for t in poses]
         if not poses or not all(math.isfinite(t) for t in poses):
             raise BadInput("--poses: must be a non-empty list of finite angles [rad]")
-    if starts is not None:
-        starts = integer("starts", starts, 1)
+    starts = DEFAULT_STARTS if starts is None else integer("starts", starts, 1)
     seed = integer("seed", seed, 0)
     gen = dict(RANDOM_DEFAULTS)
     if p is not None:

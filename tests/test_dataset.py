@@ -52,6 +52,9 @@ def test_spec_defaults_and_validation():
     assert spec["modes"] == 3 and spec["truth_modes"] == 4 and spec["truth"] == "beam"
     assert spec["beam"]["p"] == 10 and spec["beam"]["material"]["E"] == 205e9
     assert D.make_spec(joints=2, modes=4)["truth_modes"] == 5
+    from prbdm.fit import DEFAULT_STARTS
+
+    assert spec["starts"] == D.DEFAULT_STARTS == DEFAULT_STARTS   # recorded as a number
     assert D.spec_difference(spec, D.make_spec(joints=3)) is None
     assert D.spec_difference(spec, D.make_spec(joints=3, p=4)) == "beam.p"
     with pytest.raises(BadInput, match="--truth"):

@@ -33,7 +33,7 @@ def add_arguments(parser):
     g.add_argument("--poses", default="paper", metavar="paper|linear|t1,t2,...",
                    help="pose set (default paper)")
     g.add_argument("--starts", type=positive_int(1), metavar="S",
-                   help="fit multistart points (default: the fit's default)")
+                   help="fit multistart points (default 64)")
     g.add_argument("--seed", type=positive_int(0), default=0, metavar="S",
                    help="random-beam stream (default 0); beam i is random_beam(S, i)")
     g.add_argument("--stations", type=positive_int(0), metavar="p",
@@ -114,7 +114,7 @@ def _info(args) -> int:
     spec = s["spec"]
     print(f"{s['dir']}: joints {spec['joints']}, modes {spec['modes']}, truth {spec['truth']} "
           f"({spec['truth_modes']} modes), law {spec['law']}, poses {spec['poses']}, "
-          f"starts {spec['starts'] or 'default'}, seed {spec['seed']}")
+          f"starts {spec['starts']}, seed {spec['seed']}")
     print(f"records {s['unique']} of {s['count']} ({'complete' if s['complete'] else 'incomplete'}"
           f", {s['missing']} missing, {s['duplicated']} duplicated) in {s['parts']} parts, "
           f"{s['bytes'] / 1e6:.2f} MB")
