@@ -2,22 +2,23 @@
 
 A data set is a folder::
 
-    DIR/_manifest.json        what the set is (spec, seed, count), package versions, git commit, runs
+    DIR/_manifest.json        the spec, seed, count, package versions, git commit, runs
     DIR/part-000000.parquet   records, one per beam index, flat columns (lists for arrays)
     DIR/part-000001.parquet   ...
 
-Read it without prbdm: ``pandas.read_parquet(DIR)`` or ``pyarrow.parquet.read_table(DIR)`` (they skip
-names starting with ``_`` or ``.``, which is why the manifest is ``_manifest.json``).
+Read it without prbdm: ``pandas.read_parquet(DIR)`` or ``pyarrow.parquet.read_table(DIR)`` (they
+skip names starting with ``_`` or ``.``, which is why the manifest is ``_manifest.json``).
 
 How it works, in the order of this file:
 
 1. **Spec.** :func:`make_spec` fixes everything that decides a record: the random-beam generator
-   and its seed (SPEC §1), the truth model and its mode count, the PRBDM (joints, modes, law, poses,
-   starts). A later run on the same folder must ask for the same spec, or it is refused naming the
-   first differing field. The count is not part of the spec: asking for more extends the set.
+   and its seed (SPEC §1), the truth model and its mode count, the PRBDM (joints, modes, law,
+   poses, starts). A later run on the same folder must ask for the same spec, or it is refused
+   naming the first differing field. The count is not part of the spec: asking for more extends
+   the set.
 2. **Labelling.** :func:`label_beam` ``(index, spec) -> dict`` is a pure, picklable, module-level
-   function: rebuild beam ``index``, compute its truth, fit the PRBDM. Any exception becomes a record
-   with ``status = "error"`` and the message, so one bad beam never stops a run.
+   function: rebuild beam ``index``, compute its truth, fit the PRBDM. Any exception becomes a
+   record with ``status = "error"`` and the message, so one bad beam never stops a run.
 3. **Storage.** Records are buffered by the parent process and written as a part file, atomically
    (temporary file, then rename), every ``part_size`` records or ``flush_s`` seconds. A kill -9 at
    any moment loses at most the buffered records, never leaves a half-written part.
@@ -25,8 +26,9 @@ How it works, in the order of this file:
    the workers); ``scheduler=`` sends the same tasks to a Dask distributed cluster (an address, or
    ``"local"`` for a LocalCluster). Results come back to the parent, which alone writes the folder,
    so the workers need no shared file system.
-5. **Resume.** :func:`generate` takes a lock on the folder, reads the ``index`` column of every part,
-   and labels only the missing indices of ``range(count)``. No index is computed twice or lost.
+5. **Resume.** :func:`generate` takes a lock on the folder, reads the ``index`` column of every
+   part, and labels only the missing indices of ``range(count)``. No index is computed twice or
+   lost.
 6. **Summary.** :func:`info` counts records, failures, the loss distribution and time per beam.
 """
 from __future__ import annotations
@@ -165,11 +167,13 @@ COLUMNS = {
     "loss_percent": ("double", "fit loss, SPEC §3 [%]"),
     "gamma_spread": ("double", "spread of gamma among near-best starts (ambiguity of the label)"),
     "n_near_best": ("int64", "starts within 1 % of the best loss"),
-    "freq_error_max": ("list<double>", "per mapped mode, worst relative frequency error over poses"),
+    "freq_error_max": ("list<double>", "per mapped mode, worst relative frequency error of the "
+                       "poses"),
     "fit_time_s": ("double", "wall time of the fit [s]"),
     "fit_seed": ("int64", "seed given to the fit's multistart"),
     "time_s": ("double", "wall time to label the beam, all stages [s]"),
-    "cpu_s": ("double", "CPU time of the labelling thread [s]: 1 / cpu_s is the rate of a free core"),
+    "cpu_s": ("double", "CPU time of the labelling thread [s]; 1 / cpu_s is the rate of a free "
+              "core"),
     "worker": ("string", "host:pid that labelled it"),
 }
 
@@ -686,6 +690,8 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
             os.cpu_count() or 1)
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
         raise BadInput(f"--workers: must be an integer >= 0, got {workers!r}")
+    if scheduler == "local" and workers < 1:
+        raise BadInput("--workers: a local Dask cluster needs at least 1 worker")
     if part_size < 1:
         raise BadInput(f"--part-size: must be an integer >= 1, got {part_size!r}")
     out = Path(out)
