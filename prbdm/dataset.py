@@ -738,10 +738,15 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
         def flush():
             nonlocal next_part, last_flush
             if buffer:
+                # idempotent if interrupted anywhere: until the buffer is cleared, a second call
+                # rewrites the same part number with the same records
                 _write_part(out, next_part, buffer, metadata)
-                run["written"] += len(buffer)
-                next_part += 1
+                written = len(buffer)
+                errors = sum(r.get("status") != "ok" for r in buffer)
                 buffer.clear()
+                next_part += 1
+                run["written"] += written
+                run["errors"] += errors
                 _write_manifest(out, manifest)  # the run's progress, for `info` after a crash
             last_flush = time.monotonic()
 
@@ -758,7 +763,6 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
                 meter.start()
             for rec in results:
                 buffer.append(rec)
-                run["errors"] += rec.get("status") != "ok"
                 meter.update(rec)
                 if len(buffer) >= part_size or time.monotonic() - last_flush >= flush_s:
                     flush()
