@@ -5,13 +5,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.truth import bending_frequencies
 from prbdm.truth.analytic import cantilever_roots
+# the mesh-free reference: shooting on (b w'')'' = lambda b w with scipy's solve_ivp (DOP853)
+from prbdm.truth.shooting import shooting_eigenvalues
 
 SPEC_BEAM = 1e-4      # the issue: default within 0.01 % of the converged values
 
@@ -19,41 +19,6 @@ WAIST = Beam(x=[0, 0.5, 0.505, 0.51, 1], half_width=[0.1, 0.1, 0.001, 0.1, 0.1],
              name="100:1 waist over 1 % of the span")
 STEP = Beam(x=[0, 0.4, 0.41, 1], half_width=[0.2, 0.2, 0.002, 0.002], thickness=0.01,
             name="100:1 width change over 1 % of the span")
-
-
-# ---------------------------------------------------------------- mesh-free reference
-def _shooting_det(lam, xs, bs, chunk=0.02):
-    """Sign-faithful determinant of the tip conditions M(1) = V(1) = 0 of
-    (b w'')'' = lam b w, w(0) = w'(0) = 0, by integrating (w, w', M, V) from the root with
-    scipy's DOP853 station interval by station interval (b is linear on each), the two
-    fundamental solutions re-orthonormalised (QR, positive diagonal) every ``chunk``."""
-    Y = np.array([[0, 0, 1.0, 0], [0, 0, 0, 1.0]]).T
-    for a in range(len(xs) - 1):
-        x0, x1, b0, b1 = xs[a], xs[a + 1], bs[a], bs[a + 1]
-
-        def rhs(x, y, x0=x0, x1=x1, b0=b0, b1=b1):
-            b = b0 + (b1 - b0) * (x - x0) / (x1 - x0)
-            y = y.reshape(4, 2)
-            return np.array([y[1], y[2] / b, y[3], lam * b * y[0]]).ravel()
-
-        edges = np.linspace(x0, x1, max(1, int(np.ceil((x1 - x0) / chunk))) + 1)
-        for s0, s1 in zip(edges[:-1], edges[1:]):
-            sol = solve_ivp(rhs, (s0, s1), Y.ravel(), method="DOP853", rtol=1e-12, atol=1e-14)
-            Q, R = np.linalg.qr(sol.y[:, -1].reshape(4, 2))
-            Y = Q * np.sign(np.diag(R))[None, :]
-    return Y[2, 0] * Y[3, 1] - Y[2, 1] * Y[3, 0]
-
-
-def shooting_eigenvalues(beam, guesses, rel=3e-4):
-    """The exact eigenvalues next to ``guesses``, by Brent's method on the shooting determinant
-    (bracket +-rel around each guess)."""
-    xs = beam.x / beam.length
-    bs = beam.half_width / beam.half_width.max()
-    out = []
-    for g in guesses:
-        out.append(brentq(_shooting_det, g * (1 - rel), g * (1 + rel), args=(xs, bs),
-                          xtol=1e-14 * g, rtol=1e-13))
-    return np.array(out)
 
 
 # ---------------------------------------------------------------- validation

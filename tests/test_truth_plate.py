@@ -10,7 +10,6 @@ import pytest
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.truth import bending_frequencies
-from prbdm.truth.analytic import cantilever_roots
 
 SPEC_PLATE = 3e-3     # the issue: default within 0.3 % of the converged values
 

@@ -38,13 +38,10 @@ H_FLOOR = 1e-4
 
 
 def _polygon(xs, ws):
-    """Counter-clockwise vertices of the half planform and the kind of each edge."""
-    top = np.column_stack([xs[::-1], ws[::-1]])            # tip -> root along the free edge
-    verts = np.vstack([[[0.0, 0.0], [1.0, 0.0]], top])
-    n = len(verts)
-    kinds = ["axis", "tip"] + ["free"] * (len(xs) - 1) + ["root"]
-    assert len(kinds) == n
-    return verts, kinds
+    """Counter-clockwise vertices of the half planform: axis, tip edge, free edge (tip to root),
+    root edge."""
+    top = np.column_stack([xs[::-1], ws[::-1]])
+    return np.vstack([[[0.0, 0.0], [1.0, 0.0]], top])
 
 
 def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across=0.75,
@@ -62,16 +59,18 @@ def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across
         stretch = float(np.clip(2.0 * h0 / mean_w, 1.0, MAX_STRETCH))
     s = stretch
     W = ws * s                                              # stretched half-widths
-    verts, kinds = _polygon(xs, W)
+    verts = _polygon(xs, W)
     nv = len(verts)
     hc = h0 * corner_ratio
 
     # ---- refinement sources: (point, size at the point)
     sources = [(np.array([0.0, W[0]]), hc)]                 # clamped-free corner
-    # free-edge vertices: re-entrant corners (local minima of w inside) get refined like the
-    # clamped corner; every vertex gets a size no larger than its adjacent segments
+    # free-edge vertices: re-entrant corners get refined like the clamped corner (more, the
+    # sharper they are); every vertex gets a size no larger than its adjacent segments
     for k in range(1, len(xs) - 1):
-        a, v, b = np.array([xs[k - 1], W[k - 1]]), np.array([xs[k], W[k]]), np.array([xs[k + 1], W[k + 1]])
+        a = np.array([xs[k - 1], W[k - 1]])
+        v = np.array([xs[k], W[k]])
+        b = np.array([xs[k + 1], W[k + 1]])
         seg = min(np.hypot(*(v - a)), np.hypot(*(b - v)))
         # interior (material) angle: the polygon runs counter-clockwise, tip -> root along the
         # free edge, so at (x_k, w_k) it comes from station k+1 and goes to station k-1; angles
@@ -90,7 +89,8 @@ def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across
             size = min(h0, max(seg, 1e-9))
         sources.append((v, size))
     for k in (0, len(xs) - 1):                              # root-top and tip-top vertices
-        seg = np.hypot(xs[1] - xs[0], W[1] - W[0]) if k == 0 else np.hypot(xs[-1] - xs[-2], W[-1] - W[-2])
+        j = 1 if k == 0 else len(xs) - 2
+        seg = np.hypot(xs[j] - xs[k], W[j] - W[k])
         sources.append((np.array([xs[k], W[k]]), min(h0, max(seg, 1e-9))))
     src_p = np.array([p for p, _ in sources])
     src_h = np.maximum(np.array([h for _, h in sources]), H_FLOOR)

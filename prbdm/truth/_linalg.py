@@ -1,7 +1,6 @@
 """Sparse linear algebra shared by the FEM models."""
 from __future__ import annotations
 
-import numpy as np
 from scipy.sparse.linalg import LinearOperator, splu
 
 
@@ -24,3 +23,4 @@ def refined_inverse(K, steps: int = 1) -> LinearOperator:
         return x
 
     return LinearOperator(K.shape, matvec=solve, matmat=solve, dtype=float)
+

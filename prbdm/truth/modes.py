@@ -30,8 +30,9 @@ Rules (``selection``):
     remaining ones are filled with the modes of highest section fraction, in ascending order.
 
 ``"participation"``
-    the paper's rule: among the symmetric modes computed, the ``R`` with the highest
-    participation, listed in ascending frequency (the paper took them from its first 40 modes).
+    the paper's rule: among the first ``max(2 R + 4, 12)`` symmetric modes, the ``R`` with the
+    highest participation, listed in ascending frequency (the paper took them from its first 40
+    modes of both families, i.e. about 20 symmetric ones).
 """
 from __future__ import annotations
 
@@ -63,7 +64,7 @@ def select_bending(participation, fraction, modes: int, selection: str = "sectio
         order = np.argsort(-participation, kind="stable")[:modes]
         kept[order] = True
         # complete when the computed band is wide enough to hold R modes and a margin
-        return kept, n >= max(2 * modes + 8, 16)
+        return kept, n >= max(2 * modes + 4, 12)
     strong = np.flatnonzero(fraction >= SECTION_THRESHOLD)
     if len(strong) >= modes:
         kept[strong[:modes]] = True

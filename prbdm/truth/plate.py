@@ -16,10 +16,13 @@ eigenvalues are upper bounds that converge fast; the cheap nonconforming Morley 
 property on small or thin elements (ill-conditioned global-monomial construction), so we use
 :class:`prbdm.truth._argyris.LocalArgyris`, the same element built in local coordinates.
 
-Mesh: :func:`prbdm.truth._delaunay.half_planform_mesh`, an unstructured Delaunay triangulation of
-the half planform that conforms to every station exactly, graded toward the clamped-free corner
-and the re-entrant free-edge corners (singular points of the plate solution), toward short edges
-and across narrow parts, and stretched along the span for slender planforms.
+Mesh (automatic, see :func:`plate_mesh`): a structured mesh mapped from the planform
+(:mod:`prbdm.truth._mapped`) when the free edge stays within 45 degrees of the span, which gives
+long right-angled elements on slender strips; otherwise an unstructured Delaunay triangulation
+(:mod:`prbdm.truth._delaunay`) that conforms to every station exactly, graded toward the
+clamped-free corner and the re-entrant free-edge corners (singular points of the plate solution),
+toward short edges and across narrow parts. Eigenvalues: shift-invert Lanczos on the
+nondimensional, diagonally scaled matrices, then Rayleigh quotients from the fields.
 
 Half model: the planform and the material are symmetric about the x axis, so every mode is
 either symmetric (w(x, -y) = w(x, y)) or antisymmetric. Both families come from one half mesh
@@ -199,10 +202,10 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
         d = 1.0 / np.sqrt(Kf.diagonal())
         D = sp.diags(d)
         Kf, Mf = (D @ Kf @ D).tocsc(), (D @ Mf @ D).tocsc()
-        op = refined_inverse(Kf)
+        op = refined_inverse(Kf, steps=0)   # eigenvalues come from the Rayleigh quotients
         n = Kf.shape[0]
         cap = min(n - 2, MAX_MODES_COMPUTED)
-        k = min(cap, max(2 * want + 8, 16))
+        k = min(cap, max(2 * want + 4, 12))
         while True:
             lam, vec = eigsh(Kf, k=k, M=Mf, sigma=0.0, which="LM", OPinv=op,
                              v0=np.ones(Kf.shape[0]))

@@ -1,0 +1,155 @@
+"""Speed and accuracy of the truth models (issue 3).
+
+    python benchmarks/bench_truth.py                 # full run (a few minutes on 2 cores)
+    python benchmarks/bench_truth.py --quick         # fewer beams
+
+Prints
+1. ms per beam for ``beam`` and ``plate`` at the default accuracy (random beams of the paper's
+   generator, p = 10, seed 0; the first call of each model is a warm-up and is not counted);
+2. the mesh-convergence tables: for each mesh setting, the largest and median relative error of
+   the first five bending frequencies over the random beams, against a much finer reference mesh,
+   and the mean time per beam;
+3. the validation numbers: the uniform beam against cos(a) cosh(a) = -1, the square plate against
+   Barton/Leissa.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+from prbdm.geometry import Beam, Material, random_beam  # noqa: E402
+from prbdm.truth import bending_frequencies  # noqa: E402
+from prbdm.truth.shooting import shooting_eigenvalues  # noqa: E402
+
+
+def timed(beams, model, **kw):
+    bending_frequencies(beams[0], model, **kw)                     # warm-up
+    times, out = [], []
+    for b in beams:
+        t = time.perf_counter()
+        r = bending_frequencies(b, model, **kw)
+        times.append(time.perf_counter() - t)
+        out.append(r)
+    return np.array(times), out
+
+
+def speed(n_beam, n_plate):
+    print("== speed at default accuracy (random beams, seed 0, p = 10) ==")
+    beams = [random_beam(0, i) for i in range(max(n_beam, n_plate))]
+    for model, n in (("beam", n_beam), ("plate", n_plate)):
+        t, res = timed(beams[:n], model)
+        dofs = [r.mesh.get("dofs", 0) for r in res]
+        print(f"{model:6s} {n:4d} beams: median {1e3 * np.median(t):7.1f} ms, mean "
+              f"{1e3 * t.mean():7.1f} ms, max {1e3 * t.max():7.1f} ms per beam "
+              f"(mean {np.mean(dofs):.0f} DOFs)")
+    print(f"(load average while running: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores)")
+    print()
+
+
+def convergence(title, beams, model, settings, reference):
+    print(f"== {title} ==")
+    refs = [bending_frequencies(b, model, modes=5, **reference).omega for b in beams]
+    print(f"reference: {reference}")
+    print(f"{'setting':44s} {'max err':>9s} {'median':>9s} {'ms/beam':>8s} {'DOFs':>6s} "
+          f"{'other modes':>11s}")
+    for label, kw in settings:
+        errs, ts, dofs, flips = [], [], [], 0
+        for b, ref in zip(beams, refs):
+            r = bending_frequencies(b, model, modes=5, **kw)
+            e = np.abs(r.omega / ref - 1).max()
+            # an error of percents is not discretisation: the coarse mesh picked another mode
+            # as bending (plate, near-threshold section fractions); counted apart
+            if model == "plate" and e > 0.02:
+                flips += 1
+            else:
+                errs.append(e)
+            ts.append(r.time_s)
+            dofs.append(r.mesh.get("dofs", 0))
+        print(f"{label:44s} {max(errs):9.2e} {np.median(errs):9.2e} {1e3 * np.mean(ts):8.1f} "
+              f"{np.mean(dofs):6.0f} {flips:11d}")
+    print("(max err, median: of the largest relative error of modes 1-5 of each beam; other "
+          "modes: plate beams where a different mode was selected as bending, left out of the "
+          "errors)")
+    print()
+
+
+def validation():
+    print("== validation ==")
+    u = Beam(x=[0, 1.0], half_width=[0.1812, 0.1812], thickness=0.040532)
+    exact = bending_frequencies(u, "analytic", modes=5).omega
+    fem = bending_frequencies(u, "beam", modes=5).omega
+    print("uniform beam, beam model vs cos(a)cosh(a) = -1, relative error of modes 1-5:",
+          " ".join(f"{e:+.1e}" for e in fem / exact - 1))
+    sq = Beam(x=[0, 1.0], half_width=[0.5, 0.5], thickness=0.01, material=Material(nu=0.3))
+    res = bending_frequencies(sq, "plate", modes=3, all_modes=True)
+    m = sq.material
+    D = m.E * sq.thickness ** 3 / (12 * (1 - m.nu ** 2))
+    lam = np.array([e["omega"] for e in res.all_modes[:6]]) * math.sqrt(m.rho * sq.thickness / D)
+    barton = np.array([3.492, 8.525, 21.43, 27.33, 31.11, 54.44])
+    print("square plate nu = 0.3, omega a^2 sqrt(rho t / D):")
+    print("  present:", " ".join(f"{v:.4f}" for v in lam))
+    print("  Barton/Leissa:", " ".join(f"{v:.4g}" for v in barton))
+    print("  difference:", " ".join(f"{v:+.2%}" for v in lam / barton - 1))
+    print("beam model vs the mesh-free shooting solution (prbdm.truth.shooting), relative "
+          "frequency error of modes 1-5:")
+    cases = {"100:1 waist over 1 % of the span": Beam(x=[0, 0.5, 0.505, 0.51, 1],
+                                                      half_width=[0.1, 0.1, 0.001, 0.1, 0.1],
+                                                      thickness=0.01),
+             "100:1 step over 1 % of the span": Beam(x=[0, 0.4, 0.41, 1],
+                                                     half_width=[0.2, 0.2, 0.002, 0.002],
+                                                     thickness=0.01)}
+    cases.update({f"random_beam(1, {i})": random_beam(1, i) for i in range(6)})
+    for name, b in cases.items():
+        graded = bending_frequencies(b, "beam")
+        exact = shooting_eigenvalues(b, graded.lam, rel=1e-3)
+        line = " ".join(f"{e:+.1e}" for e in np.sqrt(graded.lam / exact) - 1)
+        flat = bending_frequencies(b, "beam", grading=False)
+        worst = np.abs(np.sqrt(flat.lam / exact) - 1).max()
+        print(f"  {name:34s} {line}   (without width grading: max {worst:.1e})")
+    print("plate model, slender plates vs the analytic beam (plate / beam - 1, modes 1-4):")
+    for hw in (0.05, 0.02, 0.005, 0.002):
+        b = Beam(x=[0, 1.0], half_width=[hw, hw], thickness=0.001)
+        p = bending_frequencies(b, "plate", modes=4).omega
+        a = bending_frequencies(b, "analytic", modes=4).omega
+        print(f"  L / b = {1 / (2 * hw):5.0f}: " + " ".join(f"{v:+.2e}" for v in p / a - 1))
+    print()
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer beams")
+    args = ap.parse_args(argv)
+    n_beam, n_plate = (20, 4) if args.quick else (100, 12)
+    n_conv_beam, n_conv_plate = (8, 3) if args.quick else (30, 8)
+    speed(n_beam, n_plate)
+    validation()
+    beams = [random_beam(1, i) for i in range(n_conv_beam)]
+    convergence(f"beam model convergence ({n_conv_beam} random beams, seed 1)", beams, "beam",
+                [("elements=10", dict(elements=10)),
+                 ("elements=20", dict(elements=20)),
+                 ("elements=40 (default)", dict()),
+                 ("elements=80", dict(elements=80)),
+                 ("elements=40, no width grading", dict(grading=False)),
+                 ("elements=160, no width grading", dict(elements=160, grading=False))],
+                dict(elements=600))
+    beams = [random_beam(0, i) for i in range(n_conv_plate)]
+    convergence(f"plate model convergence ({n_conv_plate} random beams, seed 0)", beams, "plate",
+                [("elements=6", dict(elements=6)),
+                 ("elements=8", dict(elements=8)),
+                 ("elements=12 (default)", dict()),
+                 ("elements=16", dict(elements=16)),
+                 ("elements=12, corner_ratio=0.05", dict(corner_ratio=0.05)),
+                 ("elements=12, corner_ratio=0.003, grade=0.3",
+                  dict(corner_ratio=0.003, grade=0.3))],
+                dict(elements=24, corner_ratio=0.003, grade=0.3))
+
+
+if __name__ == "__main__":
+    main()
