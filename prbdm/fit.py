@@ -188,7 +188,7 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6):
 
 
 def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quorum,
-          agree_rtol=1e-3, ftol=1e-9):
+          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3):
     """Batched BFGS over rows (start x beam), z kept on the unit sphere. Returns z, loss, iters.
 
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
@@ -256,8 +256,15 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
         small = (fi - f_new) <= ftol * fi + 1e-15
         stall[idx] = torch.where(small, stall[idx] + 1, torch.zeros_like(stall[idx]))
         active[idx[stall[idx] >= 3]] = False
-        # a beam stops when its `quorum` best starts agree and have converged
         if it % 5 == 0:
+            # starts that have run into the same valley as a better start follow it: drop them
+            idx = torch.nonzero(active).squeeze(-1)
+            gam = gamma_from_z(z)
+            near = torch.cdist(gam[idx], gam, p=float("inf")) < merge_tol
+            same = beam_of_row[idx, None] == beam_of_row[None, :]
+            better = f[None, :] < f[idx, None]
+            active[idx[(near & same & better).any(-1)]] = False
+            # a beam stops when its `quorum` best starts agree and have converged
             for bi in range(n_beams):
                 rows_b = torch.nonzero(beam_of_row == bi).squeeze(-1)
                 if not active[rows_b].any():

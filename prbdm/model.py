@@ -104,7 +104,8 @@ class Links:
     length (..., n+1) link lengths / L (link 0 included);
     mass (..., n) / (rho t L^2); com (..., n) distance of the centre of mass from joint j / L;
     inertia (..., n) rotary inertia about the centre of mass / (rho t L^4);
-    area_moment (..., n) mean area moment of inertia / (t^3 L / 6)... see ``mean_area_moment``.
+    mean_half_width (..., n): (1/len) ∫ w dx / L, from which the mean area moment follows;
+    tributary_compliance (..., n): ∫ dx / w over joint j's tributary span (the `beam` law).
     """
 
     cuts: torch.Tensor
@@ -113,6 +114,7 @@ class Links:
     com: torch.Tensor
     inertia: torch.Tensor
     mean_half_width: torch.Tensor   # (..., n) (1/len) ∫ w dx / L, gives the mean area moment
+    tributary_compliance: torch.Tensor  # (..., n) ∫ dx / w over joint j's tributary span
 
     def physical(self, beam: BeamTensors) -> dict:
         """SI link table: lengths [m], masses [kg], centres [m from joint], inertias [kg m^2],
@@ -133,13 +135,19 @@ def links_from_gamma(beam: BeamTensors, gamma: torch.Tensor) -> Links:
     inner = torch.cumsum(gamma[..., :-1], dim=-1)
     zero = torch.zeros_like(inner[..., :1])
     cuts = torch.cat([zero, inner, torch.ones_like(zero)], dim=-1)   # tip exactly at 1
-    a, b = cuts[..., 1:-1], cuts[..., 2:]                            # links 1..n
-    si = span_integrals(beam.x, beam.w, a, b, compliance=False)
+    n = gamma.shape[-1] - 1
+    # links 1..n, then the joints' tributary spans (centre of the link before to centre of the
+    # link after; clamp and tip at the ends) for the `beam` law: one call integrates both
+    mids = (cuts[..., 1:] + cuts[..., :-1]) / 2
+    a = torch.cat([cuts[..., 1:-1], zero, mids[..., 1:-1]], dim=-1)
+    b = torch.cat([cuts[..., 2:], mids[..., 1:-1], torch.ones_like(zero)], dim=-1)
+    si = span_integrals(beam.x, beam.w, a, b)
+    area, first, second = si.area[..., :n], si.first[..., :n], si.second[..., :n]
     length = cuts[..., 1:] - cuts[..., :-1]
-    lj = b - a
-    com = lj / 2 + si.centroid
-    return Links(cuts=cuts, length=length, mass=si.area, com=com, inertia=si.central_second,
-                 mean_half_width=si.area / (2 * lj))
+    lj = length[..., 1:]
+    return Links(cuts=cuts, length=length, mass=area, com=lj / 2 + first / area,
+                 inertia=second - first ** 2 / area, mean_half_width=area / (2 * lj),
+                 tributary_compliance=si.compliance[..., n:])
 
 
 def uniform_gamma(n: int, dtype=torch.float64) -> torch.Tensor:
@@ -186,11 +194,7 @@ def base_stiffness(beam: BeamTensors, links: Links, law: str = "beam") -> torch.
     then made nondimensional.
     """
     if law == "beam":
-        mids = (links.cuts[..., 1:] + links.cuts[..., :-1]) / 2           # (..., n+1) link centres
-        a = torch.cat([torch.zeros_like(mids[..., :1]), mids[..., 1:-1]], dim=-1)
-        b = torch.cat([mids[..., 1:-1], torch.ones_like(mids[..., :1])], dim=-1)
-        comp = span_integrals(beam.x, beam.w, a, b).compliance
-        return 1.0 / (6.0 * comp)
+        return 1.0 / (6.0 * links.tributary_compliance)
     if law == "paper":
         L, t = beam.length[..., None], beam.thickness[..., None]
         E, rho = beam.E[..., None], beam.rho[..., None]
@@ -252,7 +256,8 @@ def eigenvalues_unit_k(beam: BeamTensors, gamma: torch.Tensor, poses: torch.Tens
 def _expand_links(links: Links) -> Links:
     # insert a pose dimension before the link dimension so links broadcast against poses
     return Links(*(v[..., None, :] for v in (links.cuts, links.length, links.mass, links.com,
-                                              links.inertia, links.mean_half_width)))
+                                              links.inertia, links.mean_half_width,
+                                              links.tributary_compliance)))
 
 
 def eigenvalues(beam, gamma, k=None, poses="paper", law: str = "beam") -> torch.Tensor:
