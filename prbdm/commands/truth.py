@@ -88,10 +88,14 @@ def _report(beam, res, all_modes: bool) -> str:
         rows = []
         for m in res.all_modes:
             frac = m.get("section_fraction")
+            mark = ("kept" if m["kept"] else "") + (" ~" if m.get("ambiguous") else "")
             rows.append((f"{m['freq_hz']:.6g}", m["symmetry"], f"{m['participation']:.4f}",
-                         "" if frac is None else f"{frac:.3f}", "kept" if m["kept"] else ""))
+                         "" if frac is None else f"{frac:.3f}", mark.strip()))
         lines.append(table(rows, ("f [Hz]", "symmetry", "participation", "section frac.",
                                   "bending")))
+        if any(m.get("ambiguous") for m in res.all_modes):
+            lines.append("~ section fraction within 0.1 of the 1/2 threshold: a mode mixing "
+                         "bending and chordwise motion")
     return "\n".join(lines)
 
 

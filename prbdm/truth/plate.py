@@ -50,7 +50,7 @@ from ._argyris import LocalArgyris
 from ._delaunay import half_planform_mesh
 from ._mapped import is_benign, mapped_half_mesh
 from ._linalg import refined_inverse
-from .modes import section_fraction, select_bending
+from .modes import SECTION_THRESHOLD, section_fraction, select_bending
 
 __all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
            "DEFAULT_ELEMENTS"]
@@ -239,7 +239,11 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
         for i in range(len(lam)):
             entries.append({"lambda": float(lam[i]), "participation": float(part[i]),
                             "section_fraction": float(frac[i]), "symmetry": name,
-                            "kept": bool(kept[i])})
+                            "kept": bool(kept[i]),
+                            # within 0.1 of the threshold: mixed bending/chordwise, a choice
+                            # that finer meshes or small planform changes may flip
+                            "ambiguous": bool(name == "symmetric"
+                                              and abs(frac[i] - SECTION_THRESHOLD) < 0.1)})
     entries.sort(key=lambda e: e["lambda"])
     if all_modes:
         # the two families were computed to different heights: list the modes up to the
@@ -249,6 +253,7 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
     values = phi_s[basis.nodal_dofs[0]][:, kept_idx]
     scale = values[np.argmax(np.abs(values), axis=0), np.arange(len(kept_idx))]
     scale[scale == 0] = 1.0
+    info["below_threshold_kept"] = int(np.sum(frac_s[kept_idx] < SECTION_THRESHOLD))
     info.update({"element": "Argyris triangle (C1 quintic), half model",
                  "dofs": int(basis.N), "triangles": int(mesh.t.shape[1]),
                  "symmetric_modes_computed": int(len(lam_s)), "selection": selection})
