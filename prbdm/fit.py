@@ -280,13 +280,15 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
 
 def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
              poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
-             rep_rtol: float = 1e-3, quorum: int | None = None) -> list[FitResult]:
+             rep_rtol: float = 1e-3, quorum: int | None = None,
+             init_gamma=None) -> list[FitResult]:
     """Fit n-joint PRBDMs to several beams at once (all starts of all beams in one batch).
 
     beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
     [rad/s], ascending; modes: how many truth modes to map (r = min(joints, modes), default
-    joints); starts: per beam (default :func:`default_starts`). Returns one :class:`FitResult`
-    per beam.
+    joints); starts: per beam (default :func:`default_starts`). ``init_gamma`` (B, n+1): start
+    every beam from its own gamma instead (e.g. a network's prediction, then a few iterations
+    refine it); ``starts`` is then 1. Returns one :class:`FitResult` per beam.
     """
     t0 = time.perf_counter()
     n = _check_int(joints, "joints", 1, int(1 / GAMMA_MIN) - 1)
@@ -311,9 +313,17 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         raise BadInput("omega_truth: frequencies must be ascending")
     pose_t = make_poses(poses, n)
     lam_hat = omega_truth[:, :r] ** 2 / bt.lambda0[:, None]           # nondimensional truth
-    z0 = start_points(n, starts, seed)                                   # (S, n)
-    B, S = len(beams), z0.shape[0]
-    z = z0.repeat(B, 1)
+    B = len(beams)
+    if init_gamma is None:
+        z0 = start_points(n, starts, seed)                               # (S, n+1)
+        S = z0.shape[0]
+        z = z0.repeat(B, 1)
+    else:
+        g0 = torch.as_tensor(np.asarray(init_gamma, dtype=np.float64)).reshape(B, n + 1)
+        if not torch.isfinite(g0).all() or (g0 <= 0).any():
+            raise BadInput("init_gamma: must be finite and > 0")
+        g0 = (g0 / g0.sum(-1, keepdim=True)).clamp(GAMMA_MIN, GAMMA_MAX)
+        z, S = z_from_gamma(g0 / g0.sum(-1, keepdim=True)), 1
     beam_of_row = torch.arange(B).repeat_interleave(S)
     quorum = quorum or max(3, S // 16)
     quorum = min(quorum, S)
