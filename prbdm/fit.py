@@ -278,6 +278,39 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     return z, f, it
 
 
+def _polish(beam, z, poses, lam_truth, r, law, iters=8):
+    """Levenberg-Marquardt on the reweighted residuals (weight 1/sqrt(||r_i||)), kept only where
+    it lowers the loss. BFGS stalls on a loss that is a norm going to zero (the cone at an exact
+    fit: `linear` poses with r = n); Gauss-Newton converges there quadratically, to round-off."""
+    rows, d = z.shape
+    f, _ = _objective(beam, z, poses, lam_truth, r, law, False)
+    eye = torch.eye(d, dtype=z.dtype)
+    damping = torch.full((rows,), 1e-6, dtype=z.dtype)
+    h = 1e-7
+    for _ in range(iters):
+        pts = z[:, None, :] + torch.cat([h * eye, -h * eye])
+        bb = _rows(beam, torch.arange(rows)[:, None].expand(-1, 2 * d))
+        with torch.no_grad():
+            res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law)
+            res0, _ = _residuals(beam, z, poses, lam_truth, r, law)
+        w = torch.rsqrt(torch.linalg.vector_norm(res0, dim=-1) + 1e-30)[..., None]
+        jac = ((res_all[:, :d] - res_all[:, d:]) / (2 * h) * w[:, None]).reshape(rows, d, -1)
+        rw = (res0 * w).reshape(rows, -1)
+        H = jac @ jac.transpose(1, 2)
+        scale = torch.diagonal(H, dim1=-2, dim2=-1).mean(-1)[:, None, None]
+        A = H + scale * (z[:, :, None] * z[:, None, :] + damping[:, None, None] * eye)
+        step, info = torch.linalg.solve_ex(A + 1e-300 * eye, jac @ rw[..., None])
+        step = torch.where((info == 0)[:, None], -step.squeeze(-1), torch.zeros_like(z))
+        z_try = z + torch.nan_to_num(step, nan=0.0, posinf=0.0, neginf=0.0)
+        z_try = z_try / torch.linalg.vector_norm(z_try, dim=-1, keepdim=True)
+        f_try, _ = _objective(beam, z_try, poses, lam_truth, r, law, False)
+        better = f_try < f
+        z = torch.where(better[:, None], z_try, z)
+        f = torch.where(better, f_try, f)
+        damping = torch.where(better, damping / 10, damping * 100).clamp(1e-12, 1e6)
+    return z, f
+
+
 def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
              poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
              rep_rtol: float = 1e-3, quorum: int | None = None,
@@ -328,6 +361,11 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     quorum = quorum or max(3, S // 16)
     quorum = min(quorum, S)
     z, loss, iters = _bfgs(bt, beam_of_row, z, pose_t, lam_hat, r, law, max_iter, B, quorum)
+    # polish each beam's near-best starts with Gauss-Newton steps
+    best = torch.stack([loss[beam_of_row == bi].min() for bi in range(B)])
+    top = torch.nonzero(loss <= best[beam_of_row] * (1 + rep_rtol) + 1e-12).squeeze(-1)
+    z[top], loss[top] = _polish(_rows(bt, beam_of_row[top]), z[top], pose_t,
+                                lam_hat[beam_of_row[top]], r, law)
     elapsed = time.perf_counter() - t0
     ref = uniform_gamma(n)
     results = []
