@@ -5,7 +5,7 @@ the equality constraint sum(gamma) = 1 and the bounds of Eq. 13, finite-differen
 tolerances 1e-6 as in the paper's Table 1, from the same start points, one start at a time, on
 the same objective (Eq. 13 evaluated by prbdm.model).
 
-    python benchmarks/bench_fit.py                    # 10 beams, 3 of them for scipy
+    python benchmarks/bench_fit.py                    # 10 beams, 3 of them for scipy (~40 min)
     python benchmarks/bench_fit.py --beams 20 --scipy-beams 5 --joints 4
 
 Prints seconds per beam and median loss of each, and the speed ratio.
@@ -69,7 +69,10 @@ def main():
     ap.add_argument("--joints", type=int, default=4)
     ap.add_argument("--starts", type=int, default=DEFAULT_STARTS)
     ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--threads", type=int, default=1,
+                    help="torch threads (default 1: fastest for these small problems)")
     args = ap.parse_args()
+    torch.set_num_threads(args.threads)
     n = args.joints
     beams = [random_beam(args.seed, i) for i in range(args.beams)]
     omega = np.stack([bending_frequencies(b, model="beam", modes=n).omega for b in beams])
