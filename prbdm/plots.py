@@ -50,7 +50,7 @@ def plot_fit(beam, result, path) -> None:
         ax.axvline(xj, color="k", ls="--", lw=0.8)
         ax.plot(xj, 0, "ko", ms=5)
     ax.axvline(0, color="k", lw=3)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_ylim(-2.2 * beam.half_width.max(), 1.3 * beam.half_width.max())

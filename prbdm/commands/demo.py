@@ -32,6 +32,9 @@ def run(args) -> int:
 
     import torch
 
+    # one process, small batched problems: one thread is fastest (README, "Threads")
+    torch.set_num_threads(1)
+
     from ..fit import fit_prbdm
     from ..model import eigenvalues, frequency_errors, loss_percent, uniform_gamma
 

@@ -58,6 +58,9 @@ def run(args) -> int:
 
     import torch
 
+    # one process, small batched problems: one thread is fastest (README, "Threads")
+    torch.set_num_threads(1)
+
     from ..fit import fit_prbdm
     from ..model import BeamTensors, links_from_gamma
 
