@@ -1,0 +1,146 @@
+"""``prbdm compare BEAM --joints N``: truth vs surrogate vs optimised fit vs surrogate-then-refined.
+
+Four ways to get the PRBDM of one beam, side by side:
+
+- ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against);
+- ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
+  the network's own prediction of the truth frequencies;
+- ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
+- ``refined``: the fit started from the network's gamma alone, ``--refine-iter`` iterations
+  (:func:`prbdm.fit.fit_many` with ``init_gamma``).
+
+For each: the loss (SPEC §3, %), the per-mode frequency error (worst over the poses, %) and the
+time (the computation itself; start-up and imports excluded; ``refined`` excludes the network's
+own time, given on its row).
+
+JSON (``--json``): ``truth`` (model, omega, freq_hz, time_s), ``network``, ``network_direct``,
+``fit``, ``refined`` (each with gamma, k, omega per pose, loss_percent, freq_error per mode,
+time_s; ``network_direct``: omega, freq_error per mode), ``joints``, ``modes``, ``checkpoint``,
+``warnings``.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from ._common import add_beam_argument, positive_int, print_json, table
+from .predict import load_surrogate
+
+
+def add_arguments(parser):
+    add_beam_argument(parser)
+    parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
+                        help="number of revolute joints n (a checkpoint must exist for it)")
+    parser.add_argument("--truth", choices=("beam", "plate"), default=None,
+                        help="truth model (default: the checkpoint's)")
+    parser.add_argument("--checkpoint", metavar="PATH", default=None,
+                        help="surrogate checkpoint (default: the packaged one for --joints, "
+                             "--truth)")
+    parser.add_argument("--starts", type=positive_int(1, 100000), default=None,
+                        help="start points of the optimised fit (default: prbdm fit's)")
+    parser.add_argument("--seed", type=positive_int(0), default=0,
+                        help="seed of the fit's start points (default 0)")
+    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=20,
+                        help="iterations of the refinement from the network's gamma (default 20)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def _errors(omega_pose, omega_truth, r):
+    """Per-mode relative frequency error, worst over the poses: (r,)."""
+    return (np.abs(omega_pose[:, :r] / omega_truth[None, :r] - 1)).max(0)
+
+
+def _loss(omega_pose, omega_truth, r):
+    lam, ref = omega_pose[:, :r] ** 2, omega_truth[:r] ** 2
+    return float(100 * np.mean(np.linalg.norm(lam - ref, axis=-1) / np.linalg.norm(ref)))
+
+
+def run(args) -> int:
+    import warnings as _w
+
+    from .. import surrogate
+    from ..geometry import load_beam
+
+    beam = load_beam(args.beam)
+    sur = load_surrogate(args)
+    n, r = sur.joints, sur.modes
+    R = len(sur.norm["freq_mean"])
+
+    from ..truth import bending_frequencies
+
+    truth = bending_frequencies(beam, model=sur.truth, modes=max(R, n))
+    omega_t = np.asarray(truth.omega, dtype=np.float64)
+
+    with _w.catch_warnings():
+        _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
+        t0 = time.perf_counter()
+        pred = sur.predict(beam, frequencies=True)
+        t_net = time.perf_counter() - t0
+
+    from ..fit import fit_many, fit_prbdm
+
+    poses = sur.poses.tolist()
+    fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
+                    starts=args.starts, seed=args.seed)
+    t0 = time.perf_counter()
+    ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
+                   init_gamma=pred.gamma, max_iter=args.refine_iter)[0]
+    t_ref = time.perf_counter() - t0
+
+    def method(gamma, k, omega, t):
+        om = np.asarray(omega)
+        return {"gamma": np.asarray(gamma).tolist(), "k": np.asarray(k).tolist(),
+                "omega": om.tolist(), "freq_hz": (om / (2 * math.pi)).tolist(),
+                "loss_percent": _loss(om, omega_t, r),
+                "freq_error": _errors(om, omega_t, r).tolist(), "time_s": t}
+
+    Rd = min(R, len(omega_t))
+    direct = pred.omega_truth[0][:Rd]
+    out = {
+        "joints": n, "modes": r, "checkpoint": sur.describe(),
+        "truth": {"model": truth.model, "omega": omega_t.tolist(),
+                  "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},
+        "network": method(pred.gamma[0], pred.k[0], pred.omega[0], t_net),
+        "network_direct": {"omega": direct.tolist(),
+                           "freq_hz": (direct / (2 * math.pi)).tolist(),
+                           "freq_error": np.abs(direct / omega_t[:Rd] - 1).tolist(),
+                           "time_s": t_net},
+        "fit": {**method(fit.gamma, fit.k, fit.omega, fit.time_s), "starts": fit.n_starts},
+        "refined": {**method(ref.gamma, ref.k, ref.omega, t_ref),
+                    "max_iter": args.refine_iter},
+        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+    }
+    for w in out["warnings"]:
+        sys.stderr.write(f"prbdm compare: warning: {w}\n")
+    if args.json:
+        print_json(out)
+    else:
+        print(render(out, beam))
+    return 0
+
+
+def render(o: dict, beam) -> str:
+    r = o["modes"]
+    Rd = len(o["network_direct"]["freq_error"])
+    cols = max(r, Rd)
+    t = o["truth"]
+    lines = [f"beam: {beam.name or '(unnamed)'}; {o['joints']}R-PRBDM mapping {r} modes; "
+             f"checkpoint {o['checkpoint']['name']}", ""]
+    rows = [["truth (" + t["model"] + ")", "", *(f"{f:.5g} Hz" for f in t["freq_hz"][:cols]),
+             f"{t['time_s']:.3g}"]]
+    for key, label in (("network", "network"), ("network_direct", "network (direct)"),
+                       ("fit", f"fit ({o['fit']['starts']} starts)"),
+                       ("refined", f"refined ({o['refined']['max_iter']} it.)")):
+        m = o[key]
+        errs = [f"{e * 100:.3f} %" for e in m["freq_error"]]
+        errs += [""] * (cols - len(errs))
+        loss = f"{m['loss_percent']:.4f}" if "loss_percent" in m else ""
+        rows.append([label, loss, *errs, f"{m['time_s']:.3g}"])
+    lines.append(table(rows, ["method", "loss %", *(f"mode {j + 1}" for j in range(cols)),
+                              "time s"]))
+    lines.append("\n(mode columns: truth frequency on the truth row, relative frequency error "
+                 "elsewhere, worst over the poses for the PRBDMs)")
+    return "\n".join(lines)

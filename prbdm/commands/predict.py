@@ -1,0 +1,138 @@
+"""``prbdm predict BEAM --joints N``: the PRBDM of a beam from the trained surrogate, no FEM.
+
+A network (:mod:`prbdm.surrogate`) maps the planform to the link fractions gamma, one stiffness
+correction factor per pose, and the beam's own truth frequencies; the PRBDM built from gamma and k
+then gives the frequencies per pose. Neither torch nor scikit-fem is imported: the network and the
+PRBDM run in NumPy, so the command answers in well under a second.
+
+The checkpoint is ``--checkpoint PATH``, or the default one for (``--joints``, ``--truth``)
+(:func:`prbdm.surrogate.default_checkpoint`). A beam whose features fall outside the range seen in
+training gets a warning naming the feature (stderr; also in ``warnings`` of the JSON).
+
+JSON (``--json``): ``gamma``, ``k`` (one per pose), ``law``, ``poses``, ``omega`` and ``freq_hz``
+(the PRBDM's frequencies per pose), ``omega_truth_predicted`` and ``freq_hz_truth_predicted`` (the
+network's direct prediction of the truth frequencies), ``links`` (the SI link table: ``joint_x``,
+``length``, ``mass``, ``com``, ``inertia``, ``area_moment``, ``base_stiffness`` s_j and
+``stiffness`` k_i s_j per pose [N m/rad]), ``checkpoint`` (path, name, truth, joints, data set
+size), ``truth``, ``joints``, ``modes``, ``beam``, ``warnings``, ``time_s`` (the prediction itself,
+start-up excluded).
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+from ..errors import BadInput
+from ._common import add_beam_argument, positive_int, print_json, table
+
+TRUTHS = ("beam", "plate")
+
+
+def add_arguments(parser):
+    add_beam_argument(parser)
+    parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
+                        help="number of revolute joints n (a checkpoint must exist for it)")
+    parser.add_argument("--truth", choices=TRUTHS, default=None,
+                        help="truth model the network was trained on (default: the "
+                             "checkpoint's, or 'beam' to pick the default checkpoint)")
+    parser.add_argument("--checkpoint", metavar="PATH", default=None,
+                        help="surrogate checkpoint (.safetensors); default: the packaged one for "
+                             "--joints and --truth")
+    parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def load_surrogate(args):
+    """The checkpoint asked for, checked against --joints and --truth (BadInput otherwise)."""
+    from .. import surrogate
+
+    if args.checkpoint is not None:
+        sur = surrogate.load_checkpoint(args.checkpoint)
+    else:
+        sur = surrogate.load_checkpoint(surrogate.default_checkpoint(args.joints,
+                                                                     args.truth or "beam"))
+    if sur.joints != args.joints:
+        raise BadInput(f"--joints {args.joints}: checkpoint {sur.name} was trained for "
+                       f"{sur.joints} joints")
+    if args.truth is not None and sur.truth != args.truth:
+        raise BadInput(f"--truth {args.truth}: checkpoint {sur.name} was trained on the "
+                       f"{sur.truth!r} truth")
+    return sur
+
+
+def predict_one(sur, beam) -> dict:
+    """Everything the command prints, as a JSON-ready dict."""
+    import warnings as _w
+
+    from .. import surrogate
+
+    with _w.catch_warnings():
+        _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
+        pred = sur.predict(beam, frequencies=True)
+    batch = surrogate.BeamBatch.from_beams(beam)
+    links = surrogate.link_table(batch, pred.gamma, pred.k)
+    omega = pred.omega[0]
+    omega_t = pred.omega_truth[0]
+    return {
+        "beam": {"name": beam.name, "length": beam.length, "thickness": beam.thickness,
+                 "mass": beam.mass, "stations": len(beam.x)},
+        "joints": sur.joints, "modes": sur.modes, "truth": sur.truth, "law": pred.law,
+        "checkpoint": sur.describe(),
+        "gamma": pred.gamma[0].tolist(), "k": pred.k[0].tolist(),
+        "poses": pred.poses.tolist(),
+        "omega": omega.tolist(), "freq_hz": (omega / (2 * math.pi)).tolist(),
+        "omega_truth_predicted": omega_t.tolist(),
+        "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
+        "links": {key: v[0].tolist() for key, v in links.items()},
+        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        "time_s": pred.time_s,
+    }
+
+
+def run(args) -> int:
+    import time
+
+    from ..geometry import load_beam
+
+    beam = load_beam(args.beam)
+    sur = load_surrogate(args)
+    t0 = time.perf_counter()
+    out = predict_one(sur, beam)
+    out["time_s"] = time.perf_counter() - t0
+    for w in out["warnings"]:
+        sys.stderr.write(f"prbdm predict: warning: {w}\n")
+    if args.json:
+        print_json(out)
+    else:
+        print(render(out))
+    return 0
+
+
+def render(r: dict) -> str:
+    b, L, c = r["beam"], r["links"], r["checkpoint"]
+    n = r["joints"]
+    lines = [f"beam: {b['name'] or '(unnamed)'}  L = {b['length']:.6g} m, "
+             f"t = {b['thickness']:.6g} m, mass = {b['mass']:.6g} kg",
+             f"{n}R-PRBDM predicted by checkpoint {c['name']} (truth {r['truth']}, law "
+             f"{r['law']}, trained on {c['dataset_size']} beams); no FEM was run",
+             f"gamma: {', '.join(f'{g:.4f}' for g in r['gamma'])}", "",
+             "links (SI; centre of mass measured from the link's joint):"]
+    rows = [["0", "-", f"{L['length'][0]:.5g}", "(clamped)", "", "", ""]]
+    for j in range(n):
+        rows.append([str(j + 1), f"{L['joint_x'][j]:.5g}", f"{L['length'][j + 1]:.5g}",
+                     f"{L['mass'][j]:.5g}", f"{L['com'][j]:.5g}", f"{L['inertia'][j]:.5g}",
+                     f"{L['base_stiffness'][j]:.5g}"])
+    lines.append(table(rows, ["link", "joint x [m]", "length [m]", "mass [kg]", "com [m]",
+                              "J [kg m^2]", "s [N m/rad]"]))
+    lines += ["", "per pose: SCF k, joint stiffness k s_j [N m/rad], PRBDM frequencies [Hz]:"]
+    rows = []
+    for i, (pose, k, f, ks) in enumerate(zip(r["poses"], r["k"], r["freq_hz"],
+                                             L["stiffness"])):
+        rows.append([str(i), f"{pose[0]:.4g}", f"{k:.5g}", " ".join(f"{v:.4g}" for v in ks),
+                     *(f"{v:.5g}" for v in f)])
+    lines.append(table(rows, ["pose", "theta [rad]", "k", "stiffness [N m/rad]",
+                              *(f"f{j + 1}" for j in range(n))]))
+    ft = r["freq_hz_truth_predicted"]
+    lines.append(f"\ntruth frequencies predicted by the network [Hz]: "
+                 f"{', '.join(f'{v:.5g}' for v in ft)}")
+    lines.append(f"({r['time_s'] * 1e3:.1f} ms)")
+    return "\n".join(lines)

@@ -1,0 +1,369 @@
+"""Train the PRBDM surrogate: from a labelled data set folder to a checkpoint.
+
+One script, read top to bottom (nanoGPT style). Configuration is the plain values just below;
+override any of them on the command line as ``--name=value``:
+
+    python training/train_surrogate.py --data=/work/data/beam-n4 \
+        --out=prbdm/checkpoints/beam-n4.safetensors
+
+What it does:
+
+1. reads the data set (``status == 'ok'`` records with ``index <= max_index``) and computes the
+   features (:func:`prbdm.surrogate.features`) and the targets: gamma, log k, and the correction
+   ``log omega_hat - log_omega_rfe`` of the truth frequencies;
+2. splits by beam index: ``index % 10 == 9`` test, ``== 8`` validation, the rest training;
+3. trains one network per training mode, each from the same seed:
+   - ``label``: mean squared error of (gamma, log k, frequency correction), standardised;
+   - ``physics``: the PRBDM loss of SPEC §3 (Eq. 12-13, in percent) of the predicted (gamma, k)
+     against the stored truth frequencies, through the differentiable :mod:`prbdm.model`; the
+     frequency head keeps its label term (the truth frequencies are its only supervision);
+   - ``combined``: label loss + ``phys_weight`` * physics loss;
+   with AdamW, the learning rate halved when the validation PRBDM loss stalls, and early stopping
+   on it (the best epoch's weights are kept);
+4. keeps the mode with the lowest mean validation PRBDM loss, and records all modes' validation
+   metrics in the checkpoint metadata;
+5. writes the checkpoint, loads it back through :func:`prbdm.surrogate.load_checkpoint` (the
+   NumPy inference path that ``prbdm predict`` uses) and measures it on the test split: the
+   re-evaluated PRBDM loss (median, p95) beside the optimised fits' on the same beams, and the
+   per-mode error of the direct truth-frequency prediction; these go into the metadata too.
+
+A log goes to stdout and to ``OUT`` with the suffix ``.log``.
+"""
+import ast
+import datetime as dt
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+# ------------------------------------------------------------------------------- configuration
+data = "/work/data/beam-n4"          # data set folder (prbdm.dataset format)
+out = "prbdm/checkpoints/beam-n4.safetensors"
+modes = "label,physics,combined"     # training modes to compare, comma-separated
+seed = 0                             # torch seed of every mode (weights init and batch order)
+max_index = -1                       # use records with index <= max_index (-1: all present)
+width = 256                          # hidden units per layer
+depth = 3                            # hidden layers
+k_mode = "projection"                # SCFs: 'projection' (least squares against the predicted
+                                     # truth frequencies) or 'direct' (log k regressed)
+batch_size = 128
+lr = 2e-3
+weight_decay = 1e-5
+max_epochs = 400
+patience = 40                        # epochs without a better validation loss before stopping
+lr_patience = 12                     # epochs without improvement before halving the lr
+max_minutes = 8.0                    # wall-clock limit per mode
+phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
+freq_weight = 1.0                    # weight of the frequency head's label term
+cells = 16                           # feature cells along x / L
+rfe_segments = 12                    # links of the rigid-finite-element frequency estimate
+threads = 1                          # torch threads
+quiet = False                        # only the summary lines
+# -------------------------------------------------------------------------------------------
+
+
+def _parse_overrides(argv):
+    cfg = {k: v for k, v in globals().items()
+           if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
+    for arg in argv:
+        if not arg.startswith("--") or "=" not in arg:
+            sys.exit(f"train_surrogate: arguments are --name=value, got {arg!r}")
+        key, val = arg[2:].split("=", 1)
+        key = key.replace("-", "_")
+        if key not in cfg:
+            sys.exit(f"train_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
+        default = cfg[key]
+        if isinstance(default, bool):
+            new = val.lower() in ("1", "true", "yes", "on")
+        elif isinstance(default, str):
+            new = val
+        else:
+            try:
+                new = type(default)(ast.literal_eval(val))
+            except (ValueError, SyntaxError):
+                sys.exit(f"train_surrogate: --{key} must be a {type(default).__name__}, got {val!r}")
+        globals()[key] = new
+    return {k: globals()[k] for k in cfg}
+
+
+config = _parse_overrides(sys.argv[1:])
+
+import torch  # noqa: E402  (after the configuration, as in nanoGPT)
+
+import prbdm  # noqa: E402
+from prbdm import dataset as ds  # noqa: E402
+from prbdm import model  # noqa: E402
+from prbdm import surrogate as sg  # noqa: E402
+
+torch.set_num_threads(threads)
+out_path = Path(out)
+out_path.parent.mkdir(parents=True, exist_ok=True)
+log_path = out_path.with_suffix(".log")
+log_file = open(log_path, "w")
+t_start = time.perf_counter()
+
+
+def log(text, always=True):
+    if always or not quiet:
+        print(text, flush=True)
+    log_file.write(text + "\n")
+    log_file.flush()
+
+
+log(f"# train_surrogate {dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds')}")
+log("config " + json.dumps(config))
+
+# ------------------------------------------------------------------------------- 1. data
+manifest = ds.read_manifest(data)
+spec = manifest["spec"]
+if spec["law"] != "beam":
+    sys.exit(f"train_surrogate: the surrogate supports the 'beam' law only, data set has "
+             f"{spec['law']!r}")
+columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
+           "loss_percent", "fit_time_s", "gamma_spread"]
+table = ds.read_table(data, columns=columns, status="ok").to_pandas()
+records_read = len(table)
+if max_index < 0:
+    max_index = int(table["index"].max())
+table = table[table["index"] <= max_index].reset_index(drop=True)
+N = len(table)
+if N < 10:
+    sys.exit(f"train_surrogate: need at least 10 ok records, found {N}")
+n = spec["joints"]
+r = min(n, spec["modes"])
+poses = model.make_poses(spec["poses"], n)
+m = poses.shape[0]
+R = min(spec["truth_modes"], rfe_segments - 1)
+material = spec["beam"]["material"]
+fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"])
+batch = sg.BeamBatch.from_table(table, material)
+feats = sg.features(batch, fspec)
+names = sg.feature_names(fspec)
+omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
+log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
+rfe0 = 2 * cells
+y_gamma = np.stack(table["gamma"].to_numpy())
+y_logk = np.log(np.stack(table["k"].to_numpy()))
+y_corr = log_omega_hat - feats[:, rfe0:rfe0 + R]
+sha = sg.dataset_hash(table)
+log(f"data {data}: {records_read} ok records, {N} with index <= {max_index}; n = {n}, "
+    f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; sha256 {sha[:16]}")
+
+# ------------------------------------------------------------------------------- 2. split
+idx = table["index"].to_numpy()
+split = {"test": np.flatnonzero(idx % 10 == 9), "val": np.flatnonzero(idx % 10 == 8)}
+split["train"] = np.flatnonzero(idx % 10 < 8)
+log("split " + ", ".join(f"{k} {len(v)}" for k, v in split.items()))
+tr = split["train"]
+f_mean, f_std = feats[tr].mean(0), np.maximum(feats[tr].std(0), 1e-6)
+norm_np = {"feature_mean": f_mean, "feature_std": f_std,
+           "logk_mean": y_logk[tr].mean(0), "logk_std": np.maximum(y_logk[tr].std(0), 1e-6),
+           "freq_mean": y_corr[tr].mean(0), "freq_std": np.maximum(y_corr[tr].std(0), 1e-6),
+           "gamma_mean": y_gamma[tr].mean(0), "gamma_std": np.maximum(y_gamma[tr].std(0), 1e-6)}
+norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in norm_np.items()}
+
+F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32)
+Yg = torch.as_tensor(y_gamma, dtype=torch.float32)
+Yk = torch.as_tensor(y_logk, dtype=torch.float32)
+Yc = torch.as_tensor(y_corr, dtype=torch.float32)
+RFE = torch.as_tensor(feats[:, rfe0:rfe0 + R], dtype=torch.float32)
+BX = torch.as_tensor(batch.x)
+BW = torch.as_tensor(batch.w)
+lam_hat = torch.as_tensor(omega_truth[:, :r] ** 2 / batch.lambda0[:, None])
+
+
+def beam_rows(rows):
+    ones = torch.ones(len(rows), dtype=torch.float64)
+    # nondimensional: the beam law and the unit-k eigenvalues use only x / L and w / L
+    return model.BeamTensors(BX[rows], BW[rows], ones, ones, ones, ones)
+
+
+def outputs(net, rows):
+    """gamma, log k, log omega_hat correction, mu (None in direct k mode) for data rows."""
+    gamma, logk, low, mu = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses, r)
+    return gamma, logk, low - RFE[rows], mu
+
+
+def physics_loss(rows, gamma, logk, mu=None):
+    """Per-beam PRBDM loss [%] (SPEC §3) of the predicted PRBDM against the truth, float64."""
+    if mu is None:
+        mu = model.eigenvalues_unit_k(beam_rows(rows), gamma.double(), poses, "beam")
+    lam = mu * torch.exp(logk.double())[..., None]
+    return model.loss_percent(lam, lam_hat[rows], r)
+
+
+def label_terms(rows, gamma, logk, corr):
+    lg = (((gamma - Yg[rows]) / norm["gamma_std"]) ** 2).mean()
+    lk = (((logk.float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
+    lc = (((corr - Yc[rows]) / norm["freq_std"]) ** 2).mean()
+    return lg, lk, lc
+
+
+@torch.no_grad()
+def evaluate(net, rows):
+    rows = torch.as_tensor(rows)
+    net.eval()
+    gamma, logk, corr, mu = outputs(net, rows)
+    phys = physics_loss(rows, gamma, logk, mu).numpy()
+    err = np.abs(np.expm1((corr - Yc[rows]).double().numpy()))      # relative frequency error
+    net.train()
+    return {"loss_mean": float(phys.mean()), "loss_median": float(np.median(phys)),
+            "loss_p95": float(np.percentile(phys, 95)),
+            "freq_err_median": np.median(err, 0).tolist(),
+            "freq_err_p95": np.percentile(err, 95, 0).tolist()}
+
+
+# ------------------------------------------------------------------------------- 3. training
+Net = sg.SurrogateNet
+
+
+def make_net():
+    net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode)
+    with torch.no_grad():       # start at the mean label: gamma logits, standardised k and freq 0
+        net.head.weight.mul_(0.1)
+        net.head.bias.zero_()
+        g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
+        net.head.bias[:n + 1] = torch.log(g / g.sum())
+    return net
+
+
+def train(mode):
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+    net = make_net()
+    opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=weight_decay)
+    sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
+    gen = torch.Generator().manual_seed(seed)
+    train_rows = torch.as_tensor(split["train"])
+    best, best_state, best_epoch, stale = math.inf, None, 0, 0
+    t0 = time.perf_counter()
+    epoch = 0
+    for epoch in range(1, max_epochs + 1):
+        perm = train_rows[torch.randperm(len(train_rows), generator=gen)]
+        tot = 0.0
+        for i in range(0, len(perm), batch_size):
+            rows = perm[i:i + batch_size]
+            gamma, logk, corr, mu = outputs(net, rows)
+            lg, lk, lc = label_terms(rows, gamma, logk, corr)
+            if mode == "label":
+                loss = lg + lk + freq_weight * lc
+            elif mode == "physics":
+                loss = physics_loss(rows, gamma, logk, mu).mean().float() + freq_weight * lc
+            elif mode == "combined":
+                loss = lg + lk + freq_weight * lc + \
+                    phys_weight * physics_loss(rows, gamma, logk, mu).mean().float()
+            else:
+                sys.exit(f"train_surrogate: unknown mode {mode!r} (label, physics, combined)")
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
+            opt.step()
+            tot += float(loss.detach()) * len(rows)
+        val = evaluate(net, split["val"])
+        sched.step(val["loss_mean"])
+        if val["loss_mean"] < best:
+            best, best_epoch, stale = val["loss_mean"], epoch, 0
+            best_state = {k: v.clone() for k, v in net.state_dict().items()}
+        else:
+            stale += 1
+        elapsed = time.perf_counter() - t0
+        log(f"{mode:8s} epoch {epoch:4d}  train {tot / len(perm):.5f}  val loss mean "
+            f"{val['loss_mean']:.4f} % median {val['loss_median']:.4f} % p95 {val['loss_p95']:.4f} "
+            f"%  freq err median {max(val['freq_err_median']) * 100:.3f} %  lr "
+            f"{opt.param_groups[0]['lr']:.2g}  {elapsed:.0f} s", always=False)
+        if stale >= patience or elapsed > 60 * max_minutes:
+            break
+    net.load_state_dict(best_state)
+    summary = {"mode": mode, "best_epoch": best_epoch, "epochs": epoch,
+               "time_s": time.perf_counter() - t0, "stopped": "patience" if stale >= patience
+               else ("time limit" if epoch < max_epochs else "max_epochs"),
+               "val": evaluate(net, split["val"]), "train": evaluate(net, split["train"])}
+    v = summary["val"]
+    log(f"== {mode}: best epoch {best_epoch}/{epoch} ({summary['stopped']}), "
+        f"{summary['time_s']:.0f} s; val PRBDM loss mean {v['loss_mean']:.4f} % median "
+        f"{v['loss_median']:.4f} % p95 {v['loss_p95']:.4f} %; freq err median per mode "
+        f"{[round(e * 100, 3) for e in v['freq_err_median']]} %")
+    return net, summary
+
+
+results = {}
+nets = {}
+for mode in [s.strip() for s in modes.split(",") if s.strip()]:
+    nets[mode], results[mode] = train(mode)
+selected = min(results, key=lambda k: results[k]["val"]["loss_mean"])
+log(f"selected mode: {selected} (lowest mean validation PRBDM loss)")
+net = nets[selected]
+train_time = time.perf_counter() - t_start
+
+# ------------------------------------------------------------------------------- 4. checkpoint
+versions = ds._versions()
+try:
+    from importlib import metadata as _md
+    versions["safetensors"] = _md.version("safetensors")
+except Exception:  # noqa: BLE001
+    pass
+meta = {
+    "name": out_path.stem,
+    "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+    "joints": n, "modes": r, "truth": spec["truth"], "law": spec["law"],
+    "poses": poses.tolist(), "pose_spec": spec["poses"], "truth_modes": R,
+    "features": {"spec": fspec.to_dict(), "names": names,
+                 "min": feats[tr].min(0).tolist(), "max": feats[tr].max(0).tolist(),
+                 "ood_margin": sg.OOD_MARGIN,
+                 "invariances": "beam truth + beam law: gamma, k and omega / sqrt(E t^2 / (rho "
+                                "L^4)) depend only on w(x)/max(w) on x/L; features use only "
+                                "that shape" + ("; plate adds log_aspect and nu"
+                                                if spec["truth"] == "plate" else "")},
+    "normalisation": {k: v.tolist() for k, v in norm_np.items()},
+    "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
+                "k_mode": k_mode,
+                "parameters": int(sum(p.numel() for p in net.parameters())),
+                "outputs": "see prbdm.surrogate.decode_numpy"},
+    "dataset": {"path": str(Path(data).resolve()), "spec": spec, "size": N,
+                "records_ok_read": records_read, "max_index": max_index,
+                "manifest_count": manifest.get("count"), "sha256": sha,
+                "sha256_of": "sorted index + x, half_width, thickness, omega_truth, gamma, k "
+                             "(prbdm.surrogate.dataset_hash)",
+                "dataset_git_commit": manifest.get("git_commit"),
+                "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
+                          **{k: int(len(v)) for k, v in split.items()}}},
+    "training": {"config": config, "seeds": {"torch": seed, "numpy": seed, "batch_order": seed},
+                 "selected_mode": selected, "selection": "lowest mean validation PRBDM loss",
+                 "comparison": results, "time_s": train_time, "torch_threads": threads},
+    "versions": versions, "git_commit": ds._git_commit(),
+}
+sg.save_checkpoint(out_path, net.weights(), meta)
+
+# ------------------------------------------------------------------------------- 5. test metrics
+sur = sg.load_checkpoint(out_path)
+te = split["test"]
+if len(te):
+    t0 = time.perf_counter()
+    pred = sur.predict(batch.take(te), frequencies=True, warn=False)
+    pred_time = time.perf_counter() - t0
+    lam_net = (pred.omega / np.sqrt(batch.lambda0[te])[:, None, None]) ** 2
+    loss_net = sg.loss_percent_np(lam_net, lam_hat[te].numpy(), r)
+    ferr = np.abs(pred.omega_truth / omega_truth[te] - 1)
+    loss_fit = table["loss_percent"].to_numpy()[te]
+    test = {"beams": int(len(te)),
+            "loss_median": float(np.median(loss_net)), "loss_p95": float(np.percentile(loss_net, 95)),
+            "loss_mean": float(loss_net.mean()), "loss_max": float(loss_net.max()),
+            "fit_loss_median": float(np.median(loss_fit)),
+            "fit_loss_p95": float(np.percentile(loss_fit, 95)),
+            "freq_err_median": np.median(ferr, 0).tolist(),
+            "freq_err_p95": np.percentile(ferr, 95, 0).tolist(),
+            "out_of_range_beams": int(pred.ood.any(1).sum()),
+            "predict_time_s_per_beam": pred_time / len(te),
+            "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
+    meta["test"] = test
+    sg.save_checkpoint(out_path, net.weights(), meta)
+    log(f"test ({len(te)} beams): PRBDM loss median {test['loss_median']:.4f} % p95 "
+        f"{test['loss_p95']:.4f} % (optimised fits: median {test['fit_loss_median']:.4f} % p95 "
+        f"{test['fit_loss_p95']:.4f} %); freq-prediction error median per mode "
+        f"{[round(e * 100, 3) for e in test['freq_err_median']]} %")
+log(f"checkpoint {out_path} ({out_path.stat().st_size / 1e3:.0f} kB), training "
+    f"{train_time:.0f} s, total {time.perf_counter() - t_start:.0f} s; log {log_path}")
+log_file.close()
