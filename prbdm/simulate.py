@@ -1,0 +1,461 @@
+"""Time response of a PRBDM, against the Euler-Bernoulli beam's modal superposition (issue 8).
+
+The PRBDM (:class:`ChainDynamics`). The full nonlinear equations of the planar chain,
+
+    M(theta) theta'' + C(theta, theta') theta' + D theta' + K (theta - theta_ref) = tau,
+
+are integrated with ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-9). They are written in the
+absolute link angles ``q_j = theta_1 + ... + theta_j``, where a planar chain's kinetic energy is
+``T = 1/2 sum_ab A_ab cos(q_a - q_b) q'_a q'_b`` with a *constant* matrix
+``A_ab = sum_j m_j L_ja L_jb + delta_ab J_a`` (``L_ja`` = length of link a for a < j, centre
+offset c_j for a = j, 0 beyond). Lagrange's equations are then exactly
+
+    sum_b A_ab cos(q_a - q_b) q''_b + sum_b A_ab sin(q_a - q_b) q'_b^2 = Q_a,
+
+the second sum being the Coriolis/centrifugal term (the Christoffel symbols of ``M`` in closed
+form), and the joint torques map as ``Q_a = tau_a - tau_{a+1}``. ``M(theta) = T^T (A o cos) T``
+equals :func:`prbdm.model.mass_matrix` and the Coriolis term equals the one from autograd of the
+kinetic energy (both checked in tests/test_simulate.py); in closed form a right-hand side costs
+microseconds instead of a torch call.
+
+Damping: a first-mode damping ratio ``zeta`` becomes stiffness-proportional damping
+``D = (2 zeta / omega_1) K`` (diagonal: per-joint viscous), the same in the truth
+(``zeta_r = zeta omega_r / omega_1``), so both have ratio zeta on their first mode.
+
+The truth (:func:`beam_modes`): the Euler-Bernoulli cantilever of SPEC §2 (``b = 2 w``,
+``I = b t^3/12``, ``A = b t``) discretised here by a small dense cubic-Hermite model (stations as
+nodes plus a uniform mesh, exact Gauss quadrature) that gives SI mode shapes normalised to unit
+modal mass; its frequencies agree with :mod:`prbdm.truth`'s beam model (tested). The tip motion is
+the modal superposition ``w(L, t) = sum_r phi_r(L) eta_r(t)`` of its lowest R modes (default 20).
+
+Initial conditions, the same for both: ``tip_deflection D`` releases the beam from rest in its
+static deflection under a tip force, scaled so the tip's z is D (PRBDM: the chain's linear static
+shape ``theta_k proportional to (L - x_k) / K_k``, scaled with the exact kinematics; truth:
+``eta_r(0) = F phi_r(L) / omega_r^2``); ``tip_impulse P`` [N s] strikes the straight beam at the
+tip (PRBDM: ``theta'(0) = M(0)^-1 J^T P``; truth: ``eta'_r(0) = P phi_r(L)``).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import BadInput
+
+__all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
+           "SimulationResult", "dominant_frequency", "zero_crossing_period", "plot_simulation"]
+
+#: the truth is linear: beyond this tip deflection (fraction of L) the comparison gets a warning
+SMALL_DEFLECTION = 0.01
+MAX_PERIODS = 500
+
+
+# ----------------------------------------------------------------------------- the PRBDM
+@dataclass
+class ChainDynamics:
+    """Planar chain of links 1..n (link 0 clamped), SI units, relative joint angles theta.
+
+    length (n,) link lengths [m] (link j from joint j to joint j+1, the tip for j = n);
+    com (n,) centre of mass from joint j [m]; mass (n,) [kg]; inertia (n,) about the centre
+    [kg m^2]; stiffness, damping (n,) per joint [N m/rad, N m s/rad]; springref (n,) rest angles.
+    """
+
+    length: np.ndarray
+    com: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    springref: np.ndarray
+    A: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        for name in ("length", "com", "mass", "inertia", "stiffness", "damping", "springref"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=float))
+        n = self.n
+        Lm = np.zeros((n, n))                      # L[j, a]: lever of link a's rate on centre j
+        for j in range(n):
+            Lm[j, :j] = self.length[:j]
+            Lm[j, j] = self.com[j]
+        self.A = np.einsum("j,ja,jb->ab", self.mass, Lm, Lm) + np.diag(self.inertia)
+
+    @property
+    def n(self) -> int:
+        return self.length.size
+
+    @classmethod
+    def from_description(cls, desc: dict) -> "ChainDynamics":
+        """From :func:`prbdm.export.prbdm_from_fit`'s description."""
+        bodies, hinges = desc["bodies"][1:], desc["hinges"]
+        return cls(length=[b["length"] for b in bodies], com=[b["com"][0] for b in bodies],
+                   mass=[b["mass"] for b in bodies], inertia=[b["inertia"][1] for b in bodies],
+                   stiffness=[h["stiffness"] for h in hinges],
+                   damping=[h["damping"] for h in hinges],
+                   springref=[h["springref"] for h in hinges])
+
+    def mass_matrix(self, theta) -> np.ndarray:
+        """M(theta) [kg m^2], relative angles."""
+        q = np.cumsum(theta)
+        T = np.tril(np.ones((self.n, self.n)))
+        return T.T @ (self.A * np.cos(q[:, None] - q[None, :])) @ T
+
+    def coriolis(self, theta, theta_dot) -> np.ndarray:
+        """C(theta, theta') theta' [N m] in joint coordinates: T^T sum_b A_ab sin(q_a-q_b) q'_b^2."""
+        q, qd = np.cumsum(theta), np.cumsum(theta_dot)
+        h = (self.A * np.sin(q[:, None] - q[None, :])) @ (qd * qd)
+        return np.cumsum(h[::-1])[::-1]            # T^T h
+
+    def rhs(self, t, y, tau=None):
+        """d/dt [theta, theta'] for solve_ivp; tau(t) -> (n,) joint torques, optional."""
+        n = self.n
+        theta, thd = y[:n], y[n:]
+        q, qd = np.cumsum(theta), np.cumsum(thd)
+        dq = q[:, None] - q[None, :]
+        Q = -self.stiffness * (theta - self.springref) - self.damping * thd
+        if tau is not None:
+            Q = Q + tau(t)
+        Qq = Q.copy()
+        Qq[:-1] -= Q[1:]                           # generalised forces on q: T^-T Q
+        h = (self.A * np.sin(dq)) @ (qd * qd)
+        qdd = np.linalg.solve(self.A * np.cos(dq), Qq - h)
+        thdd = np.diff(qdd, prepend=0.0)
+        return np.concatenate([thd, thdd])
+
+    def tip(self, theta):
+        """Tip position (x relative to joint 1, z) [m] for theta (..., n)."""
+        q = np.cumsum(theta, axis=-1)
+        return (np.sum(self.length * np.cos(q), axis=-1), np.sum(self.length * np.sin(q), axis=-1))
+
+    def energy(self, theta, theta_dot) -> float:
+        """Kinetic + spring energy [J]."""
+        M = self.mass_matrix(theta)
+        d = np.asarray(theta) - self.springref
+        return float(0.5 * theta_dot @ M @ theta_dot + 0.5 * np.sum(self.stiffness * d * d))
+
+    def linear_frequencies(self, theta=None) -> np.ndarray:
+        """omega [rad/s] of K v = lambda M(theta) v (default about the spring reference)."""
+        from scipy.linalg import eigh
+
+        theta = self.springref if theta is None else theta
+        return np.sqrt(eigh(np.diag(self.stiffness), self.mass_matrix(theta), eigvals_only=True))
+
+    def lever(self) -> np.ndarray:
+        """d z_tip / d theta_k at theta = 0: distance from joint k to the tip [m]."""
+        return np.cumsum(self.length[::-1])[::-1]
+
+    def static_tip_shape(self, deflection: float) -> np.ndarray:
+        """theta of the linear static shape under a tip force, scaled so that the tip's z
+        (exact kinematics) is ``deflection``."""
+        from scipy.optimize import brentq
+
+        shape = self.lever() / self.stiffness
+        shape = shape / (self.lever() @ shape)     # unit tip deflection to first order
+        if deflection == 0:
+            return np.zeros(self.n)
+        # up to a total rotation of pi/2 the tip's z grows monotonically along the shape
+        s_hi = math.copysign(0.5 * math.pi / np.abs(shape).sum(), deflection)
+        z_hi = self.tip(s_hi * shape)[1]
+        if abs(deflection) >= abs(z_hi):
+            raise BadInput(f"--tip-deflection: {deflection:g} m is more than this chain reaches "
+                           f"in its static shape ({abs(z_hi):.4g} m)")
+        s = brentq(lambda s: self.tip(s * shape)[1] - deflection, 0.0, s_hi,
+                   xtol=1e-16 * abs(s_hi), rtol=1e-15)
+        return s * shape
+
+    def impulse_velocity(self, impulse: float) -> np.ndarray:
+        """theta'(0) after a tip impulse P [N s] (along z) on the straight chain at rest."""
+        return np.linalg.solve(self.mass_matrix(np.zeros(self.n)), self.lever() * impulse)
+
+
+# ----------------------------------------------------------------------------- the truth
+@dataclass
+class BeamModes:
+    """Euler-Bernoulli cantilever modes in SI: ``omega`` (R,) [rad/s]; ``tip`` (R,) tip values of
+    the mass-normalised modes [1/sqrt(kg)]; ``static_compliance`` tip deflection per tip force of
+    the whole discrete model [m/N]; ``elements``."""
+
+    omega: np.ndarray
+    tip: np.ndarray
+    static_compliance: float
+    elements: int
+
+
+def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
+    """Dense cubic-Hermite Euler-Bernoulli model of ``beam`` (SPEC §2), SI units.
+
+    Mesh: every span between stations divided uniformly, ``elements`` in all (default
+    ``max(120, 12 modes)``). Quadrature: 4-point Gauss per element, exact (the width is linear in
+    an element). The dense solver gives the mode shapes; each eigenvalue is then recomputed as the
+    Rayleigh quotient of its mode from the fields, ``int EI w''^2 / int rho A w^2``, sums of
+    positive terms: a dense solve alone loses ``eps * lambda_max / lambda_1`` (1e-6 here) to the
+    stiffness matrix's conditioning. The static tip compliance is the exact unit-load integral
+    ``int (L - x)^2 / EI dx``.
+    """
+    from scipy.integrate import quad
+    from scipy.linalg import eigh
+
+    L = beam.length
+    xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)
+    ne = int(elements or max(120, 12 * int(modes)))
+    counts = np.maximum(1, np.round(ne * np.diff(xs) / L).astype(int))
+    nodes = np.concatenate([np.linspace(a, b, c + 1)[:-1] for a, b, c in
+                            zip(xs[:-1], xs[1:], counts)] + [[L]])
+    E, rho, t = beam.material.E, beam.material.rho, beam.thickness
+    g, wg = np.polynomial.legendre.leggauss(4)
+    s = (g + 1) / 2
+    h = np.diff(nodes)[:, None]                                    # (ne, 1)
+    x = nodes[:-1, None] + h * s                                   # (ne, q)
+    bw = 2 * np.interp(x, xs, ws)
+    EIw = E * bw * t ** 3 / 12 * wg * h / 2                        # weighted at the points
+    rAw = rho * bw * t * wg * h / 2
+    one = np.ones_like(h)
+    H = np.stack([one - 3 * s**2 + 2 * s**3, h * (s - 2 * s**2 + s**3),
+                  one * (3 * s**2 - 2 * s**3), h * (-s**2 + s**3)], axis=1)      # (ne, 4, q)
+    H2 = np.stack([one * (-6 + 12 * s), h * (-4 + 6 * s), one * (6 - 12 * s),
+                   h * (-2 + 6 * s)], axis=1) / h[:, :, None] ** 2
+    Ke = np.einsum("eiq,eq,ejq->eij", H2, EIw, H2)
+    Me = np.einsum("eiq,eq,ejq->eij", H, rAw, H)
+    nd = 2 * nodes.size
+    dofs = 2 * np.arange(nodes.size - 1)[:, None] + np.arange(4)  # (ne, 4)
+    K = np.zeros((nd, nd))
+    M = np.zeros((nd, nd))
+    np.add.at(K, (dofs[:, :, None], dofs[:, None, :]), Ke)
+    np.add.at(M, (dofs[:, :, None], dofs[:, None, :]), Me)
+    K, M = K[2:, 2:], M[2:, 2:]                                   # clamp: w(0) = w'(0) = 0
+    R = min(int(modes), K.shape[0])
+    d = 1 / np.sqrt(np.diag(K))                                   # unit diagonal of K
+    _, vec = eigh(K * d[:, None] * d[None, :], M * d[:, None] * d[None, :],
+                  subset_by_index=[0, R - 1])
+    phi = np.zeros((nd, R))
+    phi[2:] = vec * d[:, None]
+    coef = phi[dofs]                                               # (ne, 4, R)
+    curv = np.einsum("eiq,eir->eqr", H2, coef)
+    val = np.einsum("eiq,eir->eqr", H, coef)
+    stiff = np.einsum("eq,eqr->r", EIw, curv ** 2)
+    modal_mass = np.einsum("eq,eqr->r", rAw, val ** 2)
+    lam = stiff / modal_mass
+    order = np.argsort(lam)
+    lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
+    tip = phi[-2] / np.sqrt(modal_mass)                           # unit modal mass
+    compliance = 0.0
+    for a, b in zip(xs[:-1], xs[1:]):
+        compliance += quad(lambda x: (L - x) ** 2 * 12 / (E * 2 * np.interp(x, xs, ws) * t ** 3),
+                           a, b, epsabs=0, epsrel=1e-13, limit=200)[0]
+    return BeamModes(omega=np.sqrt(lam), tip=tip, static_compliance=float(compliance),
+                     elements=int(nodes.size - 1))
+
+
+def _sdof(t, omega, zeta, x0, v0):
+    """Free response of x'' + 2 zeta omega x' + omega^2 x = 0 (any zeta >= 0)."""
+    zeta = np.where(np.abs(zeta - 1.0) < 1e-9, 1.0 + 1e-9, zeta)
+    root = np.sqrt((zeta ** 2 - 1.0).astype(complex))
+    s1, s2 = omega * (-zeta + root), omega * (-zeta - root)
+    c1 = (v0 - s2 * x0) / (s1 - s2)
+    c2 = (s1 * x0 - v0) / (s1 - s2)
+    return np.real(c1 * np.exp(np.multiply.outer(t, s1)) + c2 * np.exp(np.multiply.outer(t, s2)))
+
+
+def modal_tip_response(modes: BeamModes, t, *, tip_deflection=None, tip_impulse=None,
+                       damping: float = 0.0) -> np.ndarray:
+    """Tip deflection w(L, t) [m] of the truth's modal superposition."""
+    w, phi = modes.omega, modes.tip
+    zeta = damping * w / w[0]
+    if tip_impulse is not None:
+        x0, v0 = np.zeros_like(w), tip_impulse * phi
+    else:
+        F = tip_deflection / modes.static_compliance   # the exact static shape of the model
+        x0, v0 = F * phi / w ** 2, np.zeros_like(w)
+    return _sdof(np.asarray(t, float), w, zeta, x0, v0) @ phi
+
+
+# ----------------------------------------------------------------------------- measurements
+def zero_crossing_period(t, y) -> float:
+    """Mean period between upward zero crossings (linear interpolation); nan if fewer than 2."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    up = np.flatnonzero((y[:-1] < 0) & (y[1:] >= 0))
+    if up.size < 2:
+        return math.nan
+    tc = t[up] - y[up] * (t[up + 1] - t[up]) / (y[up + 1] - y[up])
+    return float((tc[-1] - tc[0]) / (up.size - 1))
+
+
+def dominant_frequency(t, y, guess: float, span: float = 0.3) -> float:
+    """Frequency [rad/s] of the strongest component of ``y`` within ``guess * (1 +- span)``: the
+    maximum of the Hann-windowed Fourier amplitude, located on a grid and refined by Brent's
+    method. Samples uniform in t. Higher modes several times faster barely leak into it."""
+    from scipy.optimize import minimize_scalar
+
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    win = np.hanning(t.size)
+    yw = (y - np.mean(y)) * win
+    tc = t - t[0]
+
+    def neg_amp(w):
+        return -abs(np.sum(yw * np.exp(-1j * w * tc)))
+
+    grid = np.linspace(guess * (1 - span), guess * (1 + span), 241)
+    k = int(np.argmin([neg_amp(w) for w in grid]))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(neg_amp, bounds=(lo, hi), method="bounded",
+                          options={"xatol": guess * 1e-12})
+    return float(res.x)
+
+
+# ----------------------------------------------------------------------------- simulate
+@dataclass
+class SimulationResult:
+    """Tip motion of the PRBDM and of the truth, and the first-mode periods of both."""
+
+    t: np.ndarray
+    tip_prbdm: np.ndarray
+    tip_truth: np.ndarray
+    theta: np.ndarray
+    info: dict
+
+    def to_dict(self, series: bool = True) -> dict:
+        d = dict(self.info)
+        if series:
+            d["t"] = self.t.tolist()
+            d["tip_prbdm"] = self.tip_prbdm.tolist()
+            d["tip_truth"] = self.tip_truth.tolist()
+        return d
+
+
+def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
+             tip_impulse: float | None = None, damping: float = 0.0,
+             duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
+             truth_modes: int = 20, rtol: float = 1e-9) -> SimulationResult:
+    """Free response of the PRBDM of ``fit`` (see :func:`prbdm.export.prbdm_from_fit`; springs at
+    rest straight, stiffness of pose ``pose``) and of the Euler-Bernoulli truth, from the same
+    initial condition: ``tip_deflection`` [m] (default 1e-3 L) or ``tip_impulse`` [N s].
+    ``duration`` [s] (default ``periods`` first-mode periods of the truth)."""
+    from scipy.integrate import solve_ivp
+
+    from .export import prbdm_from_fit
+
+    t0 = time.perf_counter()
+    L = beam.length
+    if tip_deflection is not None and tip_impulse is not None:
+        raise BadInput("--tip-deflection and --tip-impulse: give one, not both")
+    warnings = []
+    if tip_impulse is not None:
+        if not math.isfinite(tip_impulse) or tip_impulse == 0:
+            raise BadInput(f"--tip-impulse: must be a finite non-zero impulse [N s], "
+                           f"got {tip_impulse!r}")
+        kind, amount = "tip_impulse", float(tip_impulse)
+    else:
+        if tip_deflection is None:
+            tip_deflection = 1e-3 * L
+        if not math.isfinite(tip_deflection) or tip_deflection == 0 \
+                or abs(tip_deflection) > 0.3 * L:
+            raise BadInput(f"--tip-deflection: must be non-zero with |D| <= 0.3 L = {0.3 * L:g} m, "
+                           f"got {tip_deflection!r}")
+        kind, amount = "tip_deflection", float(tip_deflection)
+    desc = prbdm_from_fit(beam, fit, pose=pose, springref="zero", damping=damping)
+    chain = ChainDynamics.from_description(desc)
+    modes = beam_modes(beam, truth_modes)
+    T1 = 2 * math.pi / modes.omega[0]
+    if duration is None:
+        duration = periods * T1
+    if not math.isfinite(duration) or duration <= 0:
+        raise BadInput(f"--duration: must be > 0 s, got {duration!r}")
+    if duration > MAX_PERIODS * T1:
+        raise BadInput(f"--duration: at most {MAX_PERIODS} first-mode periods "
+                       f"({MAX_PERIODS * T1:.4g} s), got {duration:g} s")
+    n = chain.n
+    if kind == "tip_deflection":
+        y0 = np.concatenate([chain.static_tip_shape(amount), np.zeros(n)])
+        if abs(amount) > SMALL_DEFLECTION * L:
+            warnings.append(f"tip deflection {amount:g} m > {SMALL_DEFLECTION:g} L: the truth is "
+                            "linear, the PRBDM is not; compare at small amplitudes")
+    else:
+        y0 = np.concatenate([np.zeros(n), chain.impulse_velocity(amount)])
+    count = int(math.ceil(duration / T1 * samples_per_period)) + 1
+    t = np.linspace(0.0, duration, count)
+    scale_theta = max(np.abs(y0[:n]).max(), np.abs(y0[n:]).max() / chain.linear_frequencies(
+        np.zeros(n))[0])
+    atol = np.concatenate([np.full(n, 1e-3 * rtol * scale_theta),
+                           np.full(n, 1e-3 * rtol * scale_theta * chain.linear_frequencies(
+                               np.zeros(n))[-1])])
+    ts = time.perf_counter()
+    sol = solve_ivp(chain.rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=rtol,
+                    atol=atol)
+    ode_s = time.perf_counter() - ts
+    if not sol.success:
+        raise RuntimeError(f"solve_ivp failed: {sol.message}")
+    theta = sol.y[:n].T
+    tip_prbdm = chain.tip(theta)[1]
+    truth_kw = {kind: amount}
+    tip_truth = modal_tip_response(modes, t, damping=damping, **truth_kw)
+
+    omega_lin = chain.linear_frequencies(np.zeros(n))
+    w_prbdm = dominant_frequency(t, tip_prbdm, omega_lin[0])
+    w_truth = dominant_frequency(t, tip_truth, modes.omega[0])
+    T_prbdm, T_truth = 2 * math.pi / w_prbdm, 2 * math.pi / w_truth
+    fit_err = None
+    if "freq_error" in fit:
+        try:
+            fit_err = float(np.asarray(fit["freq_error"], float)[desc["pose"]["index"], 0])
+        except (IndexError, TypeError, ValueError):
+            fit_err = None
+    amp = float(np.max(np.abs(tip_truth)))
+    info = {
+        "joints": n, "law": desc["law"], "pose": desc["pose"]["index"],
+        "pose_theta": desc["pose"]["theta"], "k": desc["pose"]["k"],
+        "initial": {kind: amount}, "damping_ratio": float(damping), "duration_s": duration,
+        "samples": int(count),
+        "omega_prbdm_linear": omega_lin.tolist(),
+        "omega_truth": modes.omega.tolist(),
+        "period_prbdm_s": T_prbdm, "period_truth_s": T_truth,
+        "period_truth_exact_s": T1 if damping == 0 else T1 / math.sqrt(max(1 - damping**2, 1e-300)),
+        "period_zero_crossings_s": {"prbdm": zero_crossing_period(t, tip_prbdm),
+                                    "truth": zero_crossing_period(t, tip_truth)},
+        "period_error": abs(T_prbdm - T_truth) / T_truth,
+        "fit_freq_error_mode1": fit_err,
+        "max_tip_difference": float(np.max(np.abs(tip_prbdm - tip_truth)) / amp),
+        "rms_tip_difference": float(np.sqrt(np.mean((tip_prbdm - tip_truth) ** 2)) / amp),
+        "energy_drift": (abs(chain.energy(theta[-1], sol.y[n:, -1])
+                             - chain.energy(y0[:n], y0[n:])) / chain.energy(y0[:n], y0[n:])
+                         if damping == 0 else None),
+        "truth": {"model": "Euler-Bernoulli modal superposition (dense cubic Hermite, "
+                           "prbdm.simulate.beam_modes)",
+                  "modes": int(modes.omega.size), "elements": modes.elements,
+                  "truncation": float(1 - np.sum(modes.tip ** 2 / modes.omega ** 2)
+                                      / modes.static_compliance)},
+        "solver": {"method": "DOP853", "rtol": rtol, "nfev": int(sol.nfev), "time_s": ode_s},
+        "warnings": warnings,
+        "time_s": time.perf_counter() - t0,
+        "units": {"t": "s", "tip": "m (z of the tip)", "omega": "rad/s", "period": "s"},
+    }
+    return SimulationResult(t=t, tip_prbdm=tip_prbdm, tip_truth=tip_truth, theta=theta,
+                            info=info)
+
+
+def plot_simulation(result: SimulationResult, path, title: str = "") -> None:
+    """Tip deflection of the PRBDM and the truth against time (whole run, and its last three
+    periods, where a period error shows as a phase shift), saved to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, a, b = result.t, result.tip_truth, result.tip_prbdm
+    info = result.info
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), constrained_layout=True)
+    T = info["period_truth_s"]
+    for ax, sel in ((axes[0], slice(None)), (axes[1], t >= t[-1] - 3 * T)):
+        ax.plot(t[sel], 1e3 * a[sel], "k-", lw=1.2, label="truth (Euler-Bernoulli modes)")
+        ax.plot(t[sel], 1e3 * b[sel], "C1--", lw=1.2,
+                label=f"{info['joints']}R-PRBDM (nonlinear, pose {info['pose']})")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("tip deflection [mm]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title(title or f"free response: first-mode period PRBDM {info['period_prbdm_s']:.6g}"
+                      f" s, truth {T:.6g} s (error {100 * info['period_error']:.3g} %)",
+                      fontsize=9)
+    axes[1].set_title("last three periods", fontsize=9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
