@@ -763,6 +763,15 @@ class Surrogate:
                          f"{self.name}; the prediction is an extrapolation")
         return bad, texts
 
+    def ood_summary(self, bad: np.ndarray, texts: list) -> str:
+        """One line for a batch: the offending features by name, and the first case in full."""
+        if len(texts) == 1:
+            return texts[0]
+        cols = np.flatnonzero(bad.any(0))
+        names = ", ".join(self.names[j] for j in cols[:12]) + (", ..." if len(cols) > 12 else "")
+        return (f"{int(bad.any(1).sum())} of {bad.shape[0]} input(s) outside the training range "
+                f"of checkpoint {self.name} in feature(s) {names}; first: {texts[0]}")
+
     def predict(self, beams_or_features, frequencies: bool = True, warn: bool = True
                 ) -> Prediction:
         """Predict for Beam(s), a :class:`BeamBatch`, or a (B, F) feature array.
@@ -785,9 +794,7 @@ class Surrogate:
             feats = features(batch, self.feature_spec)
         bad, texts = self.check_range(feats)
         if warn and texts:
-            warnings.warn(OutOfDistributionWarning(texts[0] if len(texts) == 1 else
-                                                   f"{len(texts)} out-of-range inputs; first: "
-                                                   f"{texts[0]}"), stacklevel=2)
+            warnings.warn(OutOfDistributionWarning(self.ood_summary(bad, texts)), stacklevel=2)
         gamma, logk, low, mu = self.forward(feats, batch)
         pred = Prediction(gamma=gamma, k=None if logk is None else np.exp(logk),
                           log_omega_hat=low, poses=self.poses, law=self.law, ood=bad,

@@ -1,0 +1,327 @@
+"""prbdm.surrogate: outputs valid by construction, invariances (features, truth, PRBDM, fit,
+network), the NumPy PRBDM against prbdm.model, checkpoint round trip and metadata, the
+out-of-distribution warning, and training end to end on a tiny data set.
+
+The tiny data set (12 beams, 2 joints) and its checkpoint are made once per test session by
+:func:`tiny` (also used by tests/test_cli_predict.py).
+"""
+from __future__ import annotations
+
+import atexit
+import functools
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from prbdm import dataset as D
+from prbdm import model
+from prbdm import surrogate as sg
+from prbdm.errors import BadInput
+from prbdm.geometry import Beam, Material, random_beam
+
+REPO = Path(__file__).resolve().parents[1]
+TRAIN = REPO / "training" / "train_surrogate.py"
+SHIPPED = sg.PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
+
+
+@functools.lru_cache(maxsize=None)
+def tiny() -> Path:
+    """A 12-beam, 2-joint data set and a checkpoint trained on it for a few epochs (all three
+    modes), in a temporary folder removed at exit: ROOT/data, ROOT/ckpt/beam-n2.safetensors."""
+    root = Path(tempfile.mkdtemp(prefix="prbdm-surrogate-test-"))
+    atexit.register(shutil.rmtree, root, True)
+    D.generate(root / "data", 12, D.make_spec(joints=2, starts=2, seed=3), workers=0,
+               progress="none")
+    ckpt = root / "ckpt" / "beam-n2.safetensors"
+    run = subprocess.run([sys.executable, str(TRAIN), f"--data={root / 'data'}", f"--out={ckpt}",
+                          "--max_epochs=4", "--width=32", "--depth=2", "--quiet=True",
+                          "--batch_size=4"], capture_output=True, text=True, cwd=REPO,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    return root
+
+
+def tiny_checkpoint() -> Path:
+    return tiny() / "ckpt" / "beam-n2.safetensors"
+
+
+def _scaled(beam: Beam, width=1.0, thickness=1.0, length=1.0, E=1.0, rho=1.0) -> Beam:
+    m = beam.material
+    return Beam(x=beam.x * length, half_width=beam.half_width * width * length,
+                thickness=beam.thickness * thickness,
+                material=Material(E=m.E * E, rho=m.rho * rho, nu=m.nu))
+
+
+SCALINGS = [dict(width=0.37), dict(thickness=2.9), dict(length=3.1), dict(E=0.01, rho=0.3),
+            dict(width=4.0, thickness=0.2, length=0.05, E=7.0, rho=3.0)]
+
+
+# ------------------------------------------------------------------------ outputs by construction
+def test_outputs_valid_by_construction():
+    rng = np.random.default_rng(0)
+    n, m, R = 4, 6, 5
+    norm = {"logk_mean": np.zeros(m), "logk_std": np.ones(m), "freq_mean": np.zeros(R),
+            "freq_std": np.ones(R)}
+    beams = [random_beam(1, i) for i in range(8)]
+    bb = sg.BeamBatch.from_beams(beams)
+    rfe = sg.rfe_log_omega(bb, 12, R)
+    poses = model.make_poses("paper", n).numpy()
+    for scale in (1.0, 10.0, 30.0, 300.0):      # wild head outputs, saturated softmax included
+        out = scale * rng.standard_normal((8, n + 1 + m + R))
+        for k_mode in sg.K_MODES:
+            with np.errstate(over="ignore"):
+                gamma, logk, low, _ = sg.decode_numpy(out, norm, n, k_mode, rfe, bb.x, bb.w,
+                                                      poses, 4)
+            assert np.allclose(gamma.sum(-1), 1.0, atol=1e-12)
+            assert gamma.min() >= sg.GAMMA_MIN - 1e-15 and gamma.max() <= sg.GAMMA_MAX + 1e-15
+            if scale > 100:      # gamma stays valid whatever the head says; k may overflow
+                continue
+            k = np.exp(logk)
+            assert np.all(np.isfinite(k)) and np.all(k > 0)
+            assert np.all(np.isfinite(low))
+            tn = {key: torch.as_tensor(v) for key, v in norm.items()}
+            g_t, lk_t, low_t, _ = sg.decode_torch(torch.as_tensor(out), tn, n, m, k_mode,
+                                                  torch.as_tensor(rfe), torch.as_tensor(bb.x),
+                                                  torch.as_tensor(bb.w), torch.as_tensor(poses), 4)
+            np.testing.assert_allclose(g_t.numpy(), gamma, atol=1e-12)
+            np.testing.assert_allclose(lk_t.numpy(), logk, rtol=1e-8, atol=1e-8)
+
+
+def test_numpy_prbdm_matches_model():
+    beams = [random_beam(0, i) for i in range(20)] + [
+        Beam(x=[0, 0.4, 1.3], half_width=[0.2, 0.05, 0.11], thickness=0.02)]
+    bb = sg.BeamBatch.from_beams(beams)
+    bt = model.BeamTensors.from_beams(beams)
+    rng = np.random.default_rng(1)
+    for n in (1, 2, 4, 6):
+        g = sg.GAMMA_MIN + (1 - (n + 1) * sg.GAMMA_MIN) * rng.dirichlet(np.ones(n + 1), len(beams))
+        poses = model.make_poses("paper", n)
+        ref = model.eigenvalues_unit_k(bt, torch.as_tensor(g), poses).numpy()
+        got = sg.prbdm_eigenvalues(bb.x, bb.w, g, poses.numpy())
+        np.testing.assert_allclose(got, ref, rtol=1e-8)
+        links_t = model.links_from_gamma(bt, torch.as_tensor(g)).physical(bt)
+        table = sg.link_table(bb, g)
+        for key in ("joint_x", "length", "mass", "com", "area_moment"):
+            np.testing.assert_allclose(table[key], links_t[key].numpy(), rtol=1e-9, atol=1e-14)
+        np.testing.assert_allclose(table["inertia"], links_t["inertia"].numpy(), rtol=1e-7)
+        s_t = model.base_stiffness(bt, model.links_from_gamma(bt, torch.as_tensor(g)))
+        np.testing.assert_allclose(table["base_stiffness"],
+                                   (s_t * (bt.E * bt.thickness ** 3)[:, None]).numpy(), rtol=1e-9)
+    # the straight-beam fast path of the rigid-finite-element features
+    n = 11
+    g = np.broadcast_to(sg._uniform_gamma(n), (len(beams), n + 1))
+    ref = model.eigenvalues_unit_k(bt, torch.as_tensor(np.ascontiguousarray(g)),
+                                   torch.zeros(1, n)).numpy()[:, 0, :5]
+    np.testing.assert_allclose(np.exp(2 * sg.rfe_log_omega(bb, 12, 5)), ref, rtol=1e-9)
+
+
+# ------------------------------------------------------------------------ invariances
+def test_feature_invariances_beam_truth():
+    beams = [random_beam(2, i) for i in range(6)]
+    base = sg.features(sg.BeamBatch.from_beams(beams))
+    for s in SCALINGS:
+        got = sg.features(sg.BeamBatch.from_beams([_scaled(b, **s) for b in beams]))
+        np.testing.assert_allclose(got, base, rtol=1e-10, atol=1e-10, err_msg=str(s))
+    # the shape does matter
+    other = sg.features(sg.BeamBatch.from_beams([random_beam(3, 0)]))
+    assert np.abs(other - base[0]).max() > 1e-2
+
+
+def test_plate_features_add_aspect_and_nu():
+    b = random_beam(2, 0)
+    spec = sg.FeatureSpec(truth="plate")
+    names = sg.feature_names(spec)
+    assert names[-2:] == ["log_aspect", "nu"]
+    f0 = sg.features(sg.BeamBatch.from_beams([b]), spec)[0]
+    f_w = sg.features(sg.BeamBatch.from_beams([_scaled(b, width=0.5)]), spec)[0]
+    f_t = sg.features(sg.BeamBatch.from_beams([_scaled(b, thickness=3.0, E=2.0)]), spec)[0]
+    nu = Beam(x=b.x, half_width=b.half_width, thickness=b.thickness, material=Material(nu=0.3))
+    f_nu = sg.features(sg.BeamBatch.from_beams([nu]), spec)[0]
+    np.testing.assert_allclose(f_w[:-2], f0[:-2], atol=1e-10)      # the shape is the same
+    assert f_w[-2] == pytest.approx(f0[-2] + np.log(0.5))           # the aspect is not
+    np.testing.assert_allclose(f_t, f0, atol=1e-10)                 # Kirchhoff: t drops out
+    assert f_nu[-1] == 0.3 and f0[-1] == 0.28
+
+
+def test_truth_prbdm_and_fit_invariances():
+    """Beam truth + beam law: omega / sqrt(E t^2 / (rho L^4)), the PRBDM's nondimensional
+    eigenvalues at a given (gamma, k), and the fitted (gamma, k) do not change when the widths,
+    the thickness, the length or the material are scaled."""
+    from prbdm.fit import fit_prbdm
+    from prbdm.truth import bending_frequencies
+
+    beam = random_beam(4, 1)
+    bb = sg.BeamBatch.from_beams(beam)
+    om0 = bending_frequencies(beam, model="beam", modes=4).omega / np.sqrt(bb.lambda0[0])
+    g = torch.tensor([0.3, 0.2, 0.25, 0.25], dtype=torch.float64)
+    k = torch.linspace(0.8, 1.2, 9, dtype=torch.float64)
+    lam0 = model.eigenvalues(beam, g, k) / model.BeamTensors.from_beams(beam).lambda0
+    for s in SCALINGS:
+        b = _scaled(beam, **s)
+        l0 = sg.BeamBatch.from_beams(b).lambda0[0]
+        om = bending_frequencies(b, model="beam", modes=4).omega / np.sqrt(l0)
+        np.testing.assert_allclose(om, om0, rtol=1e-8, err_msg=str(s))
+        lam = model.eigenvalues(b, g, k) / model.BeamTensors.from_beams(b).lambda0
+        np.testing.assert_allclose(lam.numpy(), lam0.numpy(), rtol=1e-10)
+    # the fitted labels too (few starts, same seed: the same nondimensional problem)
+    fit0 = fit_prbdm(beam, om0 * np.sqrt(bb.lambda0[0]), joints=2, starts=3, seed=0)
+    fit = fit_prbdm(b, om * np.sqrt(l0), joints=2, starts=3, seed=0)
+    # (to the fit's own tolerance: its iterations see round-off of the scaled inputs)
+    np.testing.assert_allclose(fit.gamma, fit0.gamma, atol=1e-3)
+    np.testing.assert_allclose(fit.k, fit0.k, rtol=1e-3)
+    assert fit.loss_percent == pytest.approx(fit0.loss_percent, rel=1e-4)
+
+
+def test_prediction_invariances():
+    sur = sg.load_checkpoint(tiny_checkpoint())
+    beams = [random_beam(5, i) for i in range(5)]
+    p0 = sur.predict(beams, warn=False)
+    for s in SCALINGS:
+        scaled = [_scaled(b, **s) for b in beams]
+        p = sur.predict(scaled, warn=False)
+        np.testing.assert_allclose(p.gamma, p0.gamma, atol=1e-12)
+        np.testing.assert_allclose(p.k, p0.k, rtol=1e-9)
+        np.testing.assert_allclose(p.log_omega_hat, p0.log_omega_hat, atol=1e-10)
+        ratio = np.sqrt(sg.BeamBatch.from_beams(scaled).lambda0 /
+                        sg.BeamBatch.from_beams(beams).lambda0)
+        np.testing.assert_allclose(p.omega, p0.omega * ratio[:, None, None], rtol=1e-9)
+
+
+# ------------------------------------------------------------------------ checkpoints
+REQUIRED_META = ["joints", "modes", "truth", "law", "poses", "features", "normalisation",
+                 "network", "dataset", "training", "versions", "git_commit", "test"]
+
+
+def test_checkpoint_round_trip(tmp_path):
+    src = sg.load_checkpoint(tiny_checkpoint())
+    meta = src.metadata
+    for key in REQUIRED_META:
+        assert key in meta, key
+    ds = meta["dataset"]
+    assert ds["size"] == 12 and len(ds["sha256"]) == 64 and ds["spec"]["joints"] == 2
+    assert set(meta["training"]["comparison"]) == {"label", "physics", "combined"}
+    assert meta["training"]["selected_mode"] in meta["training"]["comparison"]
+    for key in ("torch", "numpy"):
+        assert key in meta["versions"]
+    assert {"loss_median", "loss_p95", "freq_err_median"} <= set(meta["test"])
+    assert len(meta["features"]["min"]) == len(meta["features"]["names"])
+    # the hash is the data set's
+    table = D.read_table(tiny() / "data", status="ok").to_pandas()
+    assert sg.dataset_hash(table) == ds["sha256"]
+    # weights -> torch network -> save -> load: same predictions, and the torch forward agrees
+    net = sg.SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
+                          width=meta["network"]["width"], depth=meta["network"]["depth"],
+                          k_mode=src.k_mode)
+    tensors, _ = sg._read_safetensors(tiny_checkpoint())
+    net.load_weights(tensors)
+    path = sg.save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
+        k: v for k, v in meta.items() if k not in ("format", "format_version")})
+    assert path.with_suffix(".json").is_file()
+    copy = sg.load_checkpoint(path)
+    beams = [random_beam(6, i) for i in range(7)]
+    a, b = src.predict(beams, warn=False), copy.predict(beams, warn=False)
+    for f in ("gamma", "k", "log_omega_hat", "omega", "omega_truth"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    bb = sg.BeamBatch.from_beams(beams)
+    feats = sg.features(bb, src.feature_spec)
+    f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
+    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
+    rfe0 = 2 * src.feature_spec.cells
+    with torch.no_grad():
+        g, lk, low, _ = net.outputs(f_std, norm, torch.as_tensor(
+            feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
+            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes)
+    np.testing.assert_allclose(g.numpy(), a.gamma, atol=2e-6)
+    np.testing.assert_allclose(lk.numpy(), np.log(a.k), atol=2e-5)
+    np.testing.assert_allclose(low.numpy(), a.log_omega_hat, atol=2e-5)
+
+
+def test_checkpoint_loading_refuses_bad_files(tmp_path):
+    with pytest.raises(BadInput, match="no such file"):
+        sg.load_checkpoint(tmp_path / "missing.safetensors")
+    junk = tmp_path / "junk.safetensors"
+    junk.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00not json at all!")
+    with pytest.raises(BadInput, match="not a safetensors file"):
+        sg.load_checkpoint(junk)
+    from safetensors.numpy import save_file
+
+    foreign = tmp_path / "foreign.safetensors"
+    save_file({"a": np.zeros(3, dtype=np.float32)}, str(foreign))
+    with pytest.raises(BadInput, match="no prbdm surrogate metadata"):
+        sg.load_checkpoint(foreign)
+    # a pickle is never unpickled: the loader reads JSON and raw arrays only
+    evil = tmp_path / "evil.safetensors"
+    evil.write_bytes(b"\x80\x04\x95" + b"\x00" * 40)
+    with pytest.raises(BadInput):
+        sg.load_checkpoint(evil)
+
+
+def test_default_checkpoint_lookup(tmp_path, monkeypatch):
+    monkeypatch.setenv("PRBDM_CHECKPOINTS", str(tmp_path))
+    with pytest.raises(BadInput, match="no trained surrogate checkpoint"):
+        sg.default_checkpoint(2, "plate")
+    shutil.copy(tiny_checkpoint(), tmp_path / "beam-n2.safetensors")
+    assert sg.default_checkpoint(2, "beam") == tmp_path / "beam-n2.safetensors"
+    p = sg.predict([random_beam(0, 1)], joints=2, warn=False)
+    assert p.gamma.shape == (1, 3)
+    with pytest.raises(BadInput, match="trained for 2 joints"):
+        sg.predict([random_beam(0, 1)], joints=3, checkpoint=tmp_path / "beam-n2.safetensors")
+
+
+@pytest.mark.skipif(not SHIPPED.is_file(), reason="no shipped n = 4 checkpoint")
+def test_shipped_checkpoint():
+    sur = sg.load_checkpoint(SHIPPED)
+    assert (sur.joints, sur.truth, sur.law) == (4, "beam", "beam")
+    assert sg.default_checkpoint(4, "beam").resolve() == SHIPPED.resolve()
+    for key in REQUIRED_META:
+        assert key in sur.metadata, key
+    beams = [random_beam(0, 10 ** 6 + i) for i in range(2000)]
+    p = sur.predict(beams, warn=False)
+    assert np.all(np.abs(p.gamma.sum(-1) - 1) < 1e-12) and np.all(p.k > 0)
+    assert np.all(np.isfinite(p.omega)) and p.omega.shape == (2000, 6, 4)
+
+
+# ------------------------------------------------------------------------ prediction API
+def test_predict_from_features_and_ood_warning():
+    sur = sg.load_checkpoint(tiny_checkpoint())
+    beams = [random_beam(7, i) for i in range(4)]
+    pb = sur.predict(beams, warn=False)
+    pf = sur.predict(sur.features(beams), warn=False)
+    np.testing.assert_array_equal(pf.gamma, pb.gamma)
+    np.testing.assert_array_equal(pf.log_omega_hat, pb.log_omega_hat)
+    assert pf.omega is None and pf.omega_truth is None
+    with pytest.raises(BadInput, match="features"):
+        sur.predict(np.zeros((2, 3)))
+    # a deep notch near the root: far outside anything in training
+    notch = Beam(x=[0, 0.1, 0.12, 0.14, 1], half_width=[0.3, 0.3, 1e-4, 0.3, 0.3],
+                 thickness=0.02)
+    with pytest.warns(sg.OutOfDistributionWarning, match=r"feature\(s\) log_\w+\[\d+\]"):
+        p = sur.predict([notch])
+    assert p.ood[0].any()
+    j = int(np.flatnonzero(p.ood[0])[0])
+    assert f"feature {sur.names[j]} = " in p.warnings[0] and "training range" in p.warnings[0]
+    # in range: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inside = sur.predict(sur.f_min[None] / 2 + sur.f_max[None] / 2)
+    assert not inside.ood.any() and inside.warnings == []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sur.predict([notch], warn=False)
+
+
+def test_training_log_and_comparison_recorded():
+    log = tiny_checkpoint().with_suffix(".log").read_text()
+    assert "selected mode:" in log and "test (" in log
+    meta = json.loads(tiny_checkpoint().with_suffix(".json").read_text())
+    for mode, res in meta["training"]["comparison"].items():
+        assert {"loss_mean", "loss_median", "loss_p95", "freq_err_median"} <= set(res["val"])
+        assert res["epochs"] <= 4

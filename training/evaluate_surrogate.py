@@ -1,0 +1,228 @@
+"""Evaluate a surrogate checkpoint on held-out beams of its data set; print one table.
+
+    python training/evaluate_surrogate.py [--checkpoint=prbdm/checkpoints/beam-n4.safetensors]
+        [--data=DIR] [--split=heldout] [--refine_count=200] [--refit_count=20]
+
+Held-out beams (``--split``): ``test`` is the checkpoint's test split (``index % 10 == 9`` among
+the records it was trained from); ``new`` is every record of the data set with an index beyond the
+last one the checkpoint saw (generated later, never used in any way); ``heldout`` (default) is
+both. Measured, on the same beams:
+
+- network: the PRBDM predicted by the checkpoint, re-evaluated against the stored truth
+  (SPEC §3 loss, %): median, p95, mean; the per-mode error of the network's direct truth-frequency
+  prediction (median, p95); time per beam (one batched call, and one beam at a time);
+- fit: the optimised fits stored in the data set (their loss; their time as recorded by the
+  labelling worker, and, for ``refit_count`` beams, re-run here with the data set's start count);
+- refined: the fit started from the network's gamma with ``refine_iter`` iterations
+  (:func:`prbdm.fit.fit_many` with ``init_gamma``), one beam at a time, for ``refine_count`` beams:
+  its loss against the optimised fit's (ratio; share within 10 %) and its time;
+- throughput of :func:`prbdm.surrogate.predict` on ``throughput_count`` random beams.
+"""
+import ast
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+# ------------------------------------------------------------------------------- configuration
+checkpoint = "prbdm/checkpoints/beam-n4.safetensors"
+data = ""                 # default: the data set path recorded in the checkpoint
+split = "heldout"         # test | new | heldout
+refine_count = 200        # beams refined one at a time (0: skip)
+refine_iter = 20
+refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
+throughput_count = 10000  # random beams for the batched-prediction rate (0: skip)
+threads = 1
+json_out = ""             # also write the results as JSON to this file
+# -------------------------------------------------------------------------------------------
+
+
+def _parse(argv):
+    cfg = {k: v for k, v in globals().items()
+           if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
+    for arg in argv:
+        if not arg.startswith("--") or "=" not in arg:
+            sys.exit(f"evaluate_surrogate: arguments are --name=value, got {arg!r}")
+        key, val = arg[2:].split("=", 1)
+        key = key.replace("-", "_")
+        if key not in cfg:
+            sys.exit(f"evaluate_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
+        globals()[key] = val if isinstance(cfg[key], str) else type(cfg[key])(ast.literal_eval(val))
+    return {k: globals()[k] for k in cfg}
+
+
+config = _parse(sys.argv[1:])
+
+from prbdm import dataset as ds  # noqa: E402
+from prbdm import surrogate as sg  # noqa: E402
+from prbdm.geometry import Material, random_beam  # noqa: E402
+
+sur = sg.load_checkpoint(checkpoint)
+meta = sur.metadata
+data = data or meta["dataset"]["path"]
+manifest = ds.read_manifest(data)
+if ds.spec_difference(manifest["spec"], meta["dataset"]["spec"]) is not None:
+    sys.exit(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
+             f"(field {ds.spec_difference(manifest['spec'], meta['dataset']['spec'])})")
+table = ds.read_table(data, columns=["index", "x", "half_width", "thickness", "omega_truth",
+                                     "gamma", "k", "loss_percent", "fit_time_s"],
+                      status="ok").to_pandas()
+max_index = meta["dataset"]["max_index"]
+idx = table["index"].to_numpy()
+test_mask = (idx <= max_index) & (idx % 10 == 9)
+new_mask = idx > max_index
+mask = {"test": test_mask, "new": new_mask, "heldout": test_mask | new_mask}[split]
+table = table[mask].reset_index(drop=True)
+B = len(table)
+if B == 0:
+    sys.exit(f"evaluate_surrogate: no {split} beams in {data}")
+n, r = sur.joints, sur.modes
+material = Material(**manifest["spec"]["beam"]["material"])
+batch = sg.BeamBatch.from_table(table, material)
+R = len(sur.norm["freq_mean"])
+omega_t = np.stack(table["omega_truth"].to_numpy())
+lam_hat = omega_t[:, :r] ** 2 / batch.lambda0[:, None]
+results = {"checkpoint": str(checkpoint), "data": str(data), "split": split, "beams": B,
+           "checkpoint_dataset_size": meta["dataset"]["size"],
+           "checkpoint_max_index": max_index,
+           "test_beams": int(test_mask.sum()), "new_beams": int(new_mask.sum())}
+
+
+def q(v, p):
+    return float(np.percentile(v, p))
+
+
+# ------------------------------------------------------------------------------- network
+t0 = time.perf_counter()
+pred = sur.predict(batch, frequencies=True, warn=False)
+t_batch = (time.perf_counter() - t0) / B
+lam_net = (pred.omega / np.sqrt(batch.lambda0)[:, None, None]) ** 2
+loss_net = sg.loss_percent_np(lam_net, lam_hat, r)
+ferr = np.abs(pred.omega_truth[:, :R] / omega_t[:, :R] - 1)
+loss_fit = table["loss_percent"].to_numpy()
+t_single = []
+for i in range(min(B, 50)):
+    b1 = batch.take([i])
+    t0 = time.perf_counter()
+    sur.predict(b1, frequencies=True, warn=False)
+    t_single.append(time.perf_counter() - t0)
+results["network"] = {
+    "loss_median": q(loss_net, 50), "loss_p95": q(loss_net, 95), "loss_mean": float(loss_net.mean()),
+    "loss_max": float(loss_net.max()),
+    "freq_err_median": np.median(ferr, 0).tolist(), "freq_err_p95": np.percentile(ferr, 95, 0).tolist(),
+    "time_s_per_beam_batched": t_batch, "time_s_per_beam_single": float(np.median(t_single)),
+    "out_of_range_beams": int(pred.ood.any(1).sum())}
+results["fit"] = {"loss_median": q(loss_fit, 50), "loss_p95": q(loss_fit, 95),
+                  "loss_mean": float(loss_fit.mean()),
+                  "time_s_median_recorded": float(np.median(table["fit_time_s"]))}
+
+# ------------------------------------------------------------------------------- refined / refit
+if refine_count or refit_count:
+    import torch
+
+    torch.set_num_threads(threads)
+    from prbdm.fit import fit_many, fit_prbdm
+
+    poses = sur.poses.tolist()
+    law = sur.law
+    spec = manifest["spec"]
+    rng = np.random.default_rng(0)
+    pick = np.sort(rng.choice(B, size=min(refine_count, B), replace=False))
+    beams = {i: ds.beam_for(spec, int(table["index"][i])) for i in
+             set(pick.tolist()) | set(range(min(refit_count, B)))}
+    if refine_count:
+        lr, tr = [], []
+        for i in pick:
+            t0 = time.perf_counter()
+            res = fit_many([beams[i]], omega_t[i:i + 1], joints=n, modes=r, law=law, poses=poses,
+                           init_gamma=pred.gamma[i:i + 1], max_iter=refine_iter)[0]
+            tr.append(time.perf_counter() - t0)
+            lr.append(res.loss_percent)
+        lr, tr = np.array(lr), np.array(tr)
+        ratio = lr / loss_fit[pick]
+        results["refined"] = {"beams": int(len(pick)), "max_iter": refine_iter,
+                              "loss_median": q(lr, 50), "loss_p95": q(lr, 95),
+                              "fit_loss_median_same_beams": q(loss_fit[pick], 50),
+                              "ratio_median": q(ratio, 50), "ratio_p95": q(ratio, 95),
+                              "share_within_10pct": float(np.mean(ratio <= 1.10)),
+                              "network_loss_median_same_beams": q(loss_net[pick], 50),
+                              "time_s_median": q(tr, 50), "time_s_mean": float(tr.mean())}
+    if refit_count:
+        tf, lf = [], []
+        for i in range(min(refit_count, B)):
+            res = fit_prbdm(beams[i], omega_t[i], joints=n, modes=r, law=law, poses=poses,
+                            starts=spec["starts"], seed=0)
+            tf.append(res.time_s)
+            lf.append(res.loss_percent)
+        results["refit"] = {"beams": len(tf), "starts": spec["starts"],
+                            "time_s_median": q(tf, 50), "time_s_mean": float(np.mean(tf)),
+                            "loss_median": q(lf, 50)}
+
+# ------------------------------------------------------------------------------- throughput
+if throughput_count:
+    tb = [random_beam(12345, i) for i in range(throughput_count)]
+    sur.predict(tb[:100], warn=False)                       # warm-up
+    t0 = time.perf_counter()
+    sur.predict(tb, frequencies=False, warn=False)
+    t1 = time.perf_counter()
+    sur.predict(tb, frequencies=True, warn=False)
+    t2 = time.perf_counter()
+    bb = sg.BeamBatch.from_beams(tb)
+    F = sur.features(bb)
+    t3 = time.perf_counter()
+    sur.predict(F, warn=False)
+    t4 = time.perf_counter()
+    results["throughput"] = {"beams": throughput_count,
+                             "beams_per_s": throughput_count / (t1 - t0),
+                             "beams_per_s_with_prbdm_frequencies": throughput_count / (t2 - t1),
+                             "features_per_s_gamma_and_truth_frequencies_only":
+                                 throughput_count / (t4 - t3)}
+
+# ------------------------------------------------------------------------------- report
+net, fit = results["network"], results["fit"]
+print(f"checkpoint {checkpoint}: trained on {meta['dataset']['size']} beams (index <= "
+      f"{max_index}); evaluated on {B} {split} beams ({results['test_beams']} test split, "
+      f"{results['new_beams']} generated after training)")
+print()
+rows = [("network", f"{net['loss_median']:.4f}", f"{net['loss_p95']:.4f}", f"{net['loss_mean']:.4f}",
+         f"{net['time_s_per_beam_single'] * 1e3:.2f} ms (batched {net['time_s_per_beam_batched'] * 1e6:.0f} us)"),
+        ("optimised fit (data set)", f"{fit['loss_median']:.4f}", f"{fit['loss_p95']:.4f}",
+         f"{fit['loss_mean']:.4f}", f"{fit['time_s_median_recorded']:.2f} s (recorded)")]
+if "refit" in results:
+    rf = results["refit"]
+    rows.append((f"optimised fit (re-run, {rf['beams']} beams)", f"{rf['loss_median']:.4f}", "", "",
+                 f"{rf['time_s_median']:.2f} s"))
+if "refined" in results:
+    rd = results["refined"]
+    rows.append((f"network + refine ({rd['max_iter']} it., {rd['beams']} beams)",
+                 f"{rd['loss_median']:.4f}", f"{rd['loss_p95']:.4f}", "",
+                 f"{rd['time_s_median']:.3f} s"))
+w = [max(len(r_[i]) for r_ in rows + [("method", "loss median %", "loss p95 %", "loss mean %",
+                                        "time per beam")]) for i in range(5)]
+hdr = ("method", "loss median %", "loss p95 %", "loss mean %", "time per beam")
+print("  ".join(h.ljust(w[i]) for i, h in enumerate(hdr)))
+print("  ".join("-" * x for x in w))
+for row in rows:
+    print("  ".join(c.ljust(w[i]) for i, c in enumerate(row)))
+if "refined" in results:
+    rd = results["refined"]
+    print(f"\nrefined / optimised loss on the same beams: median ratio {rd['ratio_median']:.3f}, "
+          f"p95 {rd['ratio_p95']:.3f}, within 10 %: {rd['share_within_10pct'] * 100:.1f} % of "
+          f"beams (network alone on them: median {rd['network_loss_median_same_beams']:.4f} %, "
+          f"fits: {rd['fit_loss_median_same_beams']:.4f} %)")
+print("\nnetwork's direct truth-frequency prediction, relative error per mode:")
+print("  median: " + ", ".join(f"mode {j + 1} {e * 100:.3f} %" for j, e in
+                                enumerate(net["freq_err_median"])))
+print("  p95:    " + ", ".join(f"mode {j + 1} {e * 100:.3f} %" for j, e in
+                                enumerate(net["freq_err_p95"])))
+print(f"  beams with an out-of-range feature: {net['out_of_range_beams']} of {B}")
+if "throughput" in results:
+    tp = results["throughput"]
+    print(f"\nbatched prediction, {tp['beams']} beams: {tp['beams_per_s']:.0f} beams/s "
+          f"(gamma, k, truth frequencies); {tp['beams_per_s_with_prbdm_frequencies']:.0f} beams/s "
+          f"with the PRBDM frequencies per pose; from precomputed features "
+          f"{tp['features_per_s_gamma_and_truth_frequencies_only']:.0f} /s")
+if json_out:
+    Path(json_out).write_text(json.dumps({"config": config, **results}, indent=1) + "\n")
