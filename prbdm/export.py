@@ -338,7 +338,9 @@ def _check_links_match(fit, phys):
 def _f(v) -> str:
     """A float as XML text, round-tripping exactly."""
     v = float(v)
-    return "0" if v == 0 else repr(v)
+    if v == int(v) and abs(v) < 1e15:
+        return str(int(v))
+    return repr(v)
 
 
 def _vec(vs) -> str:

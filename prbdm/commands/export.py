@@ -1,0 +1,163 @@
+"""``prbdm export BEAM (--joints N | --from FIT.json) --format mjcf|urdf|json -o FILE``.
+
+Writes a PRBDM for a user's simulator (:mod:`prbdm.export`, docs/export.md): MuJoCo MJCF, URDF
+(spring stiffness in the ``<prbdm:spring>`` extension tag and a Gazebo ``<gazebo>`` block), or a
+plain JSON of the physical parameters. The PRBDM comes from ``--from FIT.json`` (what
+``prbdm fit --json`` prints) or from a fit run here (``--joints N``, with the fit's options).
+
+``--pose`` picks the pose whose SCF the springs use (default: the first pose; a linear fit has
+only the theta = 0 pose); ``--springref pose`` (default) sets the springs' rest angles to that
+pose, so the exported chain at rest is the PRBDM at that pose and vibrates with its frequencies;
+``--springref zero`` rests it straight. The file is written atomically.
+
+JSON (``--json``): ``file``, ``format``, ``joints``, ``law``, ``pose`` (index, theta, k,
+springref), ``stiffness`` [N m/rad], ``springref`` [rad], ``damping`` [N m s/rad], ``omega`` and
+``freq_hz`` (small vibrations about the spring reference), ``damping_ratio``, ``source``
+(``fit`` file or ``fit run here`` with its loss), ``time_s``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from ..errors import BadInput
+from ._common import add_beam_argument, positive_int, print_json, table
+
+FIT_OPTIONS = ("modes", "law", "poses", "starts", "seed")
+
+
+def finite_float(minimum: float | None = None, positive: bool = False):
+    """argparse type: a finite float (>= minimum, or > 0)."""
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+        if positive and value <= 0:
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+        if minimum is not None and value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum:g}, got {text!r}")
+        return value
+    return parse
+
+
+def add_source_arguments(parser, default_poses: str):
+    """BEAM, ``--joints N | --from FIT.json`` and the fit options (used with ``--joints``)."""
+    add_beam_argument(parser)
+    src = parser.add_mutually_exclusive_group(required=True)
+    src.add_argument("--joints", "-n", type=positive_int(1, 39),
+                     help="fit an nR-PRBDM here (truth: Euler-Bernoulli FEM)")
+    src.add_argument("--from", dest="fit_file", metavar="FIT.json",
+                     help="use the PRBDM of a saved 'prbdm fit --json' output (- for stdin)")
+    parser.add_argument("--pose", default=None, metavar="I|linear",
+                        help="pose whose SCF the springs use: an index (default 0, the first "
+                             "pose) or 'linear' (the theta = 0 pose of a linear fit)")
+    g = parser.add_argument_group("fit options (with --joints)")
+    g.add_argument("--modes", type=positive_int(1, 50), default=None,
+                   help="truth modes to map (default n)")
+    g.add_argument("--law", choices=("beam", "paper"), default=None,
+                   help="base joint stiffness law (default 'beam')")
+    g.add_argument("--poses", default=None, metavar="paper|linear|T1,T2,...",
+                   help=f"pose set of the fit (default '{default_poses}')")
+    g.add_argument("--starts", type=positive_int(1, 100000), default=None,
+                   help="start points of the multistart (default 64)")
+    g.add_argument("--seed", type=positive_int(0), default=None,
+                   help="seed of the random start points (default 0)")
+    parser.set_defaults(default_poses=default_poses)
+
+
+def fit_from_args(args, beam) -> tuple[dict, list[str]]:
+    """The fit dictionary asked for on the command line, and warnings."""
+    from ..export import load_fit, run_fit
+    from .eval import parse_poses
+
+    if args.fit_file is not None:
+        given = [name for name in FIT_OPTIONS if getattr(args, name) is not None]
+        if given:
+            raise BadInput(f"--{given[0]}: a fit option, only with --joints (FIT.json carries "
+                           "its own fit)")
+        if args.fit_file == "-" and args.beam == "-":
+            raise BadInput("--from: BEAM and FIT.json cannot both be standard input")
+        fit = load_fit(args.fit_file)
+        return fit, []
+    n = args.joints
+    poses, warnings = parse_poses(args.poses or args.default_poses, n)
+    fit = run_fit(beam, n, modes=args.modes, law=args.law or "beam", poses=poses,
+                  starts=args.starts, seed=args.seed or 0)
+    return fit, warnings
+
+
+def add_arguments(parser):
+    from ..export import FORMATS
+
+    add_source_arguments(parser, default_poses="paper")
+    parser.add_argument("--format", "-f", choices=FORMATS, default=None,
+                        help="mjcf (MuJoCo), urdf, or json (physical parameters); default from "
+                             "the suffix of FILE (.xml/.mjcf, .urdf, .json)")
+    parser.add_argument("-o", "--output", required=True, metavar="FILE",
+                        help="file to write (atomically), or - for standard output")
+    parser.add_argument("--springref", choices=("pose", "zero"), default="pose",
+                        help="springs at rest at the pose's angles (default: small vibrations "
+                             "then have the PRBDM's frequencies at that pose) or straight")
+    parser.add_argument("--damping", type=finite_float(minimum=0.0), default=0.0, metavar="ZETA",
+                        help="first-mode damping ratio, as stiffness-proportional joint damping "
+                             "(default 0)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def run(args) -> int:
+    from ..export import WRITERS, format_from_path, prbdm_from_fit
+    from ..geometry import load_beam
+
+    t0 = time.perf_counter()
+    to_stdout = args.output == "-"
+    if to_stdout and args.json:
+        raise BadInput("-o: '-' (the file on stdout) cannot be combined with --json")
+    if args.format is None and to_stdout:
+        raise BadInput("--format: needed with -o -")
+    fmt = args.format or format_from_path(args.output)
+    beam = load_beam(args.beam)
+    fit, warnings = fit_from_args(args, beam)
+    desc = prbdm_from_fit(beam, fit, pose=args.pose, springref=args.springref,
+                          damping=args.damping)
+    text = WRITERS[fmt](desc)
+    if to_stdout:
+        sys.stdout.write(text)
+    else:
+        from ._common import atomic_write
+
+        try:
+            atomic_write(args.output, text)
+        except OSError as exc:
+            raise BadInput(f"-o: cannot write {args.output!r} ({exc.strerror or exc})") from None
+    for w in warnings:
+        sys.stderr.write(f"warning: {w}\n")
+    if to_stdout:
+        return 0
+    h = desc["hinges"]
+    source = ({"fit_file": args.fit_file} if args.fit_file is not None else
+              {"fit": "run here", "loss_percent": fit["loss_percent"],
+               "max_freq_error": fit["max_freq_error"], "starts": fit["starts"]})
+    out = {"file": str(args.output), "format": fmt, "joints": desc["joints"], "law": desc["law"],
+           "pose": {key: desc["pose"][key] for key in ("index", "theta", "k", "springref")},
+           "stiffness": [j["stiffness"] for j in h], "springref": [j["springref"] for j in h],
+           "damping": [j["damping"] for j in h], "omega": desc["omega"],
+           "freq_hz": desc["freq_hz"], "damping_ratio": desc["damping_ratio"],
+           "source": source, "warnings": warnings, "time_s": time.perf_counter() - t0}
+    if args.json:
+        print_json(out)
+        return 0
+    p = desc["pose"]
+    print(f"wrote {args.output} ({fmt}): {desc['joints']}R-PRBDM, law {desc['law']}, pose "
+          f"{p['index']} (theta {', '.join(f'{v:.4g}' for v in p['theta'])} rad), SCF k = "
+          f"{p['k']:.6g}, springs at rest at {'the pose' if p['springref'] == 'pose' else 0}")
+    rows = [[j["name"], f"{j['x']:.5g}", f"{j['stiffness']:.6g}", f"{j['springref']:.4g}",
+             f"{j['damping']:.4g}"] for j in h]
+    print(table(rows, ["joint", "x m", "K N m/rad", "springref rad", "damping N m s/rad"]))
+    print("frequencies about the spring reference: "
+          + ", ".join(f"{f:.5g}" for f in desc["freq_hz"]) + " Hz")
+    return 0
