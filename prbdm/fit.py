@@ -194,8 +194,7 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
     step); BFGS updates then add the residual curvature that Gauss-Newton misses, which matters
     here because the residuals at the optimum are not small. Each iteration tries four step
-    lengths (the full step first, with its gradient; the shorter ones in one batched call only
-    where it fails) and keeps the longest that satisfies Armijo's condition."""
+    lengths in one batched call and keeps the longest that satisfies Armijo's condition."""
     rows, d = z.shape
     dtype = z.dtype
     lt_all = lam_truth[beam_of_row]
@@ -228,30 +227,17 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
         pn = torch.linalg.vector_norm(p, dim=-1, keepdim=True)
         p = p * torch.clamp(0.5 / pn.clamp_min(1e-300), max=1.0)          # at most 0.5 rad
         slope = (p * gi).sum(-1)
-        a = idx.numel()
-        br = _rows(beam_rows, idx)
         trial = zi[:, None, :] + alphas[:, None] * p[:, None, :]
         trial = trial / torch.linalg.vector_norm(trial, dim=-1, keepdim=True)
-        # the full step, with its gradient: accepted by most rows most of the time
-        f_new, g_new = _objective(br, trial[:, 0], poses, lt_all[idx], r, law, True)
-        z_new = trial[:, 0]
-        full_ok = f_new <= fi + 1e-4 * slope
-        back = torch.nonzero(~full_ok).squeeze(-1)
-        if back.numel():
-            # the others try the shorter steps, keeping the longest that satisfies Armijo
-            bt = _rows(br, back[:, None].expand(-1, len(alphas) - 1))
-            ft, _ = _objective(bt, trial[back, 1:], poses, lt_all[idx[back]][:, None, :], r, law,
-                               False)
-            ft = torch.cat([f_new[back, None], ft], dim=-1)
-            armijo = ft <= fi[back, None] + 1e-4 * alphas * slope[back, None]
-            first = torch.where(armijo.any(-1), armijo.float().argmax(-1), ft.argmin(-1))
-            zb = trial[back, first]
-            improved_b = ft[torch.arange(back.numel()), first] < fi[back]
-            zb = torch.where(improved_b[:, None], zb, zi[back])
-            fb, gb = _objective(_rows(br, back), zb, poses, lt_all[idx[back]], r, law, True)
-            z_new, f_new, g_new = z_new.clone(), f_new.clone(), g_new.clone()
-            z_new[back], f_new[back], g_new[back] = zb, fb, gb
+        bt = _rows(beam_rows, idx[:, None].expand(-1, len(alphas)))
+        ft, _ = _objective(bt, trial, poses, lt_all[idx][:, None, :], r, law, False)
+        armijo = ft <= fi[:, None] + 1e-4 * alphas * slope[:, None]
+        first = torch.where(armijo.any(-1), armijo.float().argmax(-1), ft.argmin(-1))
+        z_new = trial[torch.arange(idx.numel()), first]
+        f_new = ft[torch.arange(idx.numel()), first]
         improved = f_new < fi
+        z_new = torch.where(improved[:, None], z_new, zi)
+        f_new, g_new = _objective(_rows(beam_rows, idx), z_new, poses, lt_all[idx], r, law, True)
         # BFGS update of the inverse Hessian where the curvature condition holds
         s_ = z_new - zi
         y_ = g_new - gi
