@@ -393,6 +393,8 @@ def gamma_from_logits_np(logits, g_min: float = GAMMA_MIN):
 
 
 K_MODES = ("projection", "direct")
+#: the poses on which candidate segmentations are compared (first and last of the set)
+SELECT_POSES = [0, -1]
 #: scale of the k head in ``projection`` mode: an output of 1 changes k by a factor e^0.01
 K_DELTA_SCALE = 0.01
 
@@ -402,58 +404,100 @@ def _project_k(mu, lam_pred):
     return (mu * lam_pred[..., None, :]).sum(-1) / (mu * mu).sum(-1)
 
 
-def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None, poses=None,
-                 r=None):
-    """The network's raw head ``out`` (B, (n+1) + m + R) -> gamma, log k, log omega_hat, mu.
+def _candidate_losses(mu, lam):
+    """Loss [%] (SPEC §3) of each candidate's PRBDM with its least-squares SCFs against ``lam``:
+    mu (B, H, m, r), lam (B, r) -> k (B, H, m), loss (B, H). Works for NumPy and torch."""
+    lam_c = lam[:, None, :]
+    k = _project_k(mu, lam_c)
+    res = k[..., None] * mu - lam_c[..., None, :]
+    if isinstance(mu, np.ndarray):
+        rel = np.linalg.norm(res, axis=-1) / np.linalg.norm(lam_c, axis=-1)[..., None]
+    else:
+        rel = res.norm(dim=-1) / lam_c.norm(dim=-1)[..., None]
+    return k, 100.0 * rel.mean(-1)
 
-    - ``gamma = g_min + (1 - (n+1) g_min) softmax(out[:, :n+1])``: on the bounded simplex;
+
+def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None, poses=None,
+                 r=None, hypotheses: int = 1) -> dict:
+    """The network's raw head ``out`` (B, H (n+1) + m + R) -> a dict of gamma (B, n+1), logk
+    (B, m), log_omega_hat (B, R), mu (B, m, n) unit-k PRBDM eigenvalues, and with H > 1 the
+    candidates ``gamma_all`` (B, H, n+1) and the chosen one ``select`` (B,).
+
+    - ``gamma = g_min + (1 - (n+1) g_min) softmax(logits)``: on the bounded simplex, for each of
+      the H candidate segmentations (``hypotheses``);
     - ``log omega_hat = log_omega_rfe + out[:, -R:] * freq_std + freq_mean``: the truth
       frequencies / sqrt(E t^2 / (rho L^4)), as a correction of the rigid-finite-element estimate;
     - ``k``, per pose, in one of two ways (``k_mode``):
-      ``direct``: ``log k = out * logk_std + logk_mean``;
+      ``direct``: ``log k = out * logk_std + logk_mean`` (H = 1 only);
       ``projection``: the least-squares SCF that matches the PRBDM's unit-k eigenvalues
       ``mu_i(gamma)`` to the network's own predicted truth eigenvalues ``omega_hat^2`` (the same
       variable projection as the fit, SPEC §3, with the prediction in place of the truth), times
-      ``exp(K_DELTA_SCALE * out)``. It needs the geometry (x, w / L), the poses and r; mu is
-      returned so that the frequencies per pose need no second eigen-solve.
+      ``exp(K_DELTA_SCALE * out)``. It needs the geometry (x, w / L), the poses and r.
+    - with H > 1 candidates, the one kept is the one whose PRBDM best matches the predicted truth
+      frequencies (the SPEC §3 loss against ``omega_hat``, on the first and last poses of the
+      set): the network proposes, the physics chooses. Without geometry, candidate 0 is
+      returned and logk is None.
     Every output is valid by construction: k > 0 because mu > 0 and omega_hat > 0.
     """
     n1 = joints + 1
+    H = hypotheses
     m = len(norm["logk_mean"])
-    gamma = gamma_from_logits_np(out[:, :n1])
-    log_omega_hat = rfe + out[:, n1 + m:] * norm["freq_std"] + norm["freq_mean"]
-    mu = None
+    B = out.shape[0]
+    gamma_all = gamma_from_logits_np(out[:, :H * n1].reshape(B, H, n1))
+    kh = out[:, H * n1:H * n1 + m]
+    log_omega_hat = rfe + out[:, H * n1 + m:] * norm["freq_std"] + norm["freq_mean"]
+    res = {"gamma": gamma_all[:, 0], "logk": None, "log_omega_hat": log_omega_hat, "mu": None,
+           "gamma_all": gamma_all, "select": np.zeros(B, dtype=np.int64)}
     if k_mode == "direct":
-        logk = out[:, n1:n1 + m] * norm["logk_std"] + norm["logk_mean"]
-    elif x is None:
-        logk = None
-    else:
+        res["logk"] = kh * norm["logk_std"] + norm["logk_mean"]
+    elif x is not None:
+        lam_p = np.exp(2 * log_omega_hat[:, :r])
+        rows = np.arange(B)
+        sel = np.zeros(B, dtype=np.int64)
+        if H > 1:       # choose on the first and last poses only (cheap), then solve all poses
+            mu_all = prbdm_eigenvalues(np.repeat(x, H, 0), np.repeat(w, H, 0),
+                                       gamma_all.reshape(B * H, n1), poses[SELECT_POSES])
+            mu_all = mu_all.reshape(B, H, *mu_all.shape[1:])
+            sel = np.argmin(_candidate_losses(mu_all[..., :r], lam_p)[1], axis=1)
+        gamma = gamma_all[rows, sel]
         mu = prbdm_eigenvalues(x, w, gamma, poses)
-        kp = _project_k(mu[..., :r], np.exp(2 * log_omega_hat[:, :r]))
-        logk = np.log(kp) + K_DELTA_SCALE * out[:, n1:n1 + m]
-    return gamma, logk, log_omega_hat, mu
+        kp = _project_k(mu[..., :r], lam_p)
+        res.update(gamma=gamma, mu=mu, select=sel, logk=np.log(kp) + K_DELTA_SCALE * kh)
+    return res
 
 
 def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None, w=None,
-                 poses=None, r=None):
-    """Torch twin of :func:`decode_numpy` (differentiable; eigenvalues in float64)."""
+                 poses=None, r=None, hypotheses: int = 1) -> dict:
+    """Torch twin of :func:`decode_numpy` (differentiable; eigenvalues in float64). Also returns
+    ``mu_all`` (B, H, m, n) for the training losses."""
     import torch
 
     from . import model
 
     n1 = joints + 1
-    gamma = GAMMA_MIN + (1 - n1 * GAMMA_MIN) * torch.softmax(out[:, :n1], -1)
-    log_omega_hat = rfe + out[:, n1 + m:] * norm["freq_std"] + norm["freq_mean"]
-    mu = None
+    H = hypotheses
+    B = out.shape[0]
+    gamma_all = GAMMA_MIN + (1 - n1 * GAMMA_MIN) * torch.softmax(
+        out[:, :H * n1].reshape(B, H, n1), -1)
+    kh = out[:, H * n1:H * n1 + m]
+    log_omega_hat = rfe + out[:, H * n1 + m:] * norm["freq_std"] + norm["freq_mean"]
+    res = {"gamma": gamma_all[:, 0], "logk": None, "log_omega_hat": log_omega_hat, "mu": None,
+           "mu_all": None, "gamma_all": gamma_all,
+           "select": torch.zeros(B, dtype=torch.long)}
     if k_mode == "direct":
-        logk = out[:, n1:n1 + m] * norm["logk_std"] + norm["logk_mean"]
-    else:
-        ones = torch.ones(x.shape[0], dtype=torch.float64)
-        bt = model.BeamTensors(x, w, ones, ones, ones, ones)
-        mu = model.eigenvalues_unit_k(bt, gamma.double(), poses, "beam")
-        kp = _project_k(mu[..., :r], torch.exp(2 * log_omega_hat[:, :r].double()))
-        logk = torch.log(kp) + K_DELTA_SCALE * out[:, n1:n1 + m].double()
-    return gamma, logk, log_omega_hat, mu
+        res["logk"] = kh * norm["logk_std"] + norm["logk_mean"]
+    elif x is not None:
+        ones = torch.ones(B, 1, dtype=torch.float64)
+        bt = model.BeamTensors(x[:, None], w[:, None], ones, ones, ones, ones)
+        mu_all = model.eigenvalues_unit_k(bt, gamma_all.double(), poses, "beam")
+        lam_p = torch.exp(2 * log_omega_hat[:, :r].double())
+        rows = torch.arange(B)
+        sel = _candidate_losses(mu_all[:, :, SELECT_POSES, :r], lam_p)[1].detach().argmin(1)
+        mu = mu_all[rows, sel]
+        kp = _project_k(mu[..., :r], lam_p)
+        res.update(gamma=gamma_all[rows, sel], mu=mu, mu_all=mu_all, select=sel,
+                   logk=torch.log(kp) + K_DELTA_SCALE * kh.double())
+    return res
 
 
 def _torch_net_class():
@@ -466,17 +510,20 @@ def _torch_net_class():
         :func:`decode_numpy`).
 
         layers: ``depth`` hidden Linear + SiLU layers of ``width`` units, then one linear head
-        of (n + 1) + m + R outputs."""
+        of H (n + 1) + m + R outputs (H candidate segmentations, ``hypotheses``)."""
 
         def __init__(self, n_in: int, joints: int, poses: int, modes: int, width: int = 256,
-                     depth: int = 3, k_mode: str = "projection"):
+                     depth: int = 3, k_mode: str = "projection", hypotheses: int = 1):
             super().__init__()
             if k_mode not in K_MODES:
                 raise BadInput(f"k_mode: must be one of {', '.join(K_MODES)}, got {k_mode!r}")
+            if hypotheses > 1 and k_mode == "direct":
+                raise BadInput("hypotheses > 1 needs k_mode 'projection'")
             self.joints, self.n_poses, self.modes, self.k_mode = joints, poses, modes, k_mode
+            self.hypotheses = hypotheses
             dims = [n_in] + [width] * depth
             self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
-            self.head = nn.Linear(width, joints + 1 + poses + modes)
+            self.head = nn.Linear(width, hypotheses * (joints + 1) + poses + modes)
 
         def forward(self, f):
             h = f
@@ -484,14 +531,15 @@ def _torch_net_class():
                 h = torch.nn.functional.silu(layer(h))
             return self.head(h)
 
-        def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None):
-            """Decoded outputs for standardised features ``f`` (B, F): gamma (B, n+1), log k
-            (B, m), log omega_hat (B, R), and the unit-k PRBDM eigenvalues mu (B, m, r) (float64;
-            None for ``k_mode = 'direct'``). ``norm``: torch tensors of the normalisation;
-            ``rfe`` (B, R) the log_omega_rfe features; x, w (B, S) / L, poses (m, n) and the
-            mapped mode count r are needed by ``k_mode = 'projection'``."""
+        def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None) -> dict:
+            """Decoded outputs for standardised features ``f`` (B, F), see
+            :func:`decode_torch`: gamma (B, n+1), logk (B, m), log_omega_hat (B, R), mu
+            (B, m, n) unit-k PRBDM eigenvalues (float64; None for ``k_mode = 'direct'``), ...
+            ``norm``: torch tensors of the normalisation; ``rfe`` (B, R) the log_omega_rfe
+            features; x, w (B, S) / L, poses (m, n) and the mapped mode count r are needed by
+            ``k_mode = 'projection'``."""
             return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                                poses, r)
+                                poses, r, self.hypotheses)
 
         def weights(self) -> dict:
             """The weights as the checkpoint stores them: layers.{i}.weight/bias, NumPy float32."""
@@ -663,11 +711,16 @@ class Prediction:
     omega_truth (B, R) [rad/s] (the same, in SI) and, when asked, omega (B, m, n) [rad/s], the
     PRBDM's own frequencies per pose; poses (m, n) [rad]; law; ood: (B, F) bool, True where a
     feature lies outside its training range (with the margin); warnings: one text per beam and
-    offending feature (at most 20 listed); time_s: wall time of the prediction.
+    offending feature (at most 20 listed); time_s: wall time of the prediction; extra:
+    ``gamma_candidates`` (B, H, n+1) and ``selected`` (B,) for a network with H > 1 candidates.
+
+    From features alone (no geometry) only log_omega_hat is complete: k (``projection`` mode)
+    and the choice among several candidate gammas need the beam's PRBDM, so they are None (with
+    one candidate, gamma is given).
     """
 
-    gamma: np.ndarray
-    k: np.ndarray
+    gamma: np.ndarray | None
+    k: np.ndarray | None
     log_omega_hat: np.ndarray
     poses: np.ndarray
     law: str
@@ -696,6 +749,7 @@ class Surrogate:
                          for k, v in metadata["normalisation"].items()}
             self.f_mean, self.f_std = self.norm["feature_mean"], self.norm["feature_std"]
             self.k_mode = str(metadata["network"].get("k_mode", "direct"))
+            self.hypotheses = int(metadata["network"].get("hypotheses", 1))
             self.f_min = np.asarray(metadata["features"]["min"], dtype=np.float64)
             self.f_max = np.asarray(metadata["features"]["max"], dtype=np.float64)
             self.names = list(metadata["features"]["names"])
@@ -732,10 +786,10 @@ class Surrogate:
         batch = beams if isinstance(beams, BeamBatch) else BeamBatch.from_beams(beams)
         return features(batch, self.feature_spec)
 
-    def forward(self, feats: np.ndarray, batch: "BeamBatch | None" = None):
-        """gamma (B, n+1), log k (B, m), log omega_hat (B, R) and the unit-k PRBDM eigenvalues
-        mu (B, m, n) from raw features (B, F). In ``projection`` k mode, k needs the beams
-        (``batch``); without them log k (and mu) are None."""
+    def forward(self, feats: np.ndarray, batch: "BeamBatch | None" = None) -> dict:
+        """The decoded outputs (see :func:`decode_numpy`: gamma, logk, log_omega_hat, mu, ...)
+        from raw features (B, F). In ``projection`` k mode, k needs the beams (``batch``);
+        without them logk and mu are None (and, with several candidates, gamma is the first)."""
         h = (feats - self.f_mean) / self.f_std
         for W, b in self.layers[:-1]:
             h = _silu(h @ W.T + b)
@@ -745,7 +799,7 @@ class Surrogate:
         rfe = feats[:, rfe0:rfe0 + len(self.norm["freq_mean"])]
         x, w = (batch.x, batch.w) if batch is not None else (None, None)
         return decode_numpy(out, self.norm, self.joints, self.k_mode, rfe, x, w, self.poses,
-                            self.modes)
+                            self.modes, self.hypotheses)
 
     def check_range(self, feats: np.ndarray):
         """(B, F) bool out-of-range mask and the warning texts (at most ``20``)."""
@@ -795,10 +849,17 @@ class Surrogate:
         bad, texts = self.check_range(feats)
         if warn and texts:
             warnings.warn(OutOfDistributionWarning(self.ood_summary(bad, texts)), stacklevel=2)
-        gamma, logk, low, mu = self.forward(feats, batch)
+        d = self.forward(feats, batch)
+        gamma, logk, low, mu = d["gamma"], d["logk"], d["log_omega_hat"], d["mu"]
         pred = Prediction(gamma=gamma, k=None if logk is None else np.exp(logk),
                           log_omega_hat=low, poses=self.poses, law=self.law, ood=bad,
                           warnings=texts)
+        if self.hypotheses > 1:
+            pred.extra["gamma_candidates"] = d["gamma_all"]
+            if batch is None:       # choosing a candidate needs the PRBDM, i.e. the geometry
+                pred.gamma = None
+            else:
+                pred.extra["selected"] = d["select"]
         if batch is not None:
             sq = np.sqrt(batch.lambda0)[:, None]
             pred.omega_truth = np.exp(low) * sq

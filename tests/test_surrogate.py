@@ -70,29 +70,42 @@ def test_outputs_valid_by_construction():
     n, m, R = 4, 6, 5
     norm = {"logk_mean": np.zeros(m), "logk_std": np.ones(m), "freq_mean": np.zeros(R),
             "freq_std": np.ones(R)}
+    tn = {key: torch.as_tensor(v) for key, v in norm.items()}
     beams = [random_beam(1, i) for i in range(8)]
     bb = sg.BeamBatch.from_beams(beams)
     rfe = sg.rfe_log_omega(bb, 12, R)
     poses = model.make_poses("paper", n).numpy()
-    for scale in (1.0, 10.0, 30.0, 300.0):      # wild head outputs, saturated softmax included
-        out = scale * rng.standard_normal((8, n + 1 + m + R))
-        for k_mode in sg.K_MODES:
+    for k_mode, H in (("direct", 1), ("projection", 1), ("projection", 3)):
+        for scale in (1.0, 10.0, 30.0, 300.0):  # wild head outputs, saturated softmax included
+            out = scale * rng.standard_normal((8, H * (n + 1) + m + R))
             with np.errstate(over="ignore"):
-                gamma, logk, low, _ = sg.decode_numpy(out, norm, n, k_mode, rfe, bb.x, bb.w,
-                                                      poses, 4)
+                d = sg.decode_numpy(out, norm, n, k_mode, rfe, bb.x, bb.w, poses, 4, H)
+            gamma = d["gamma"]
             assert np.allclose(gamma.sum(-1), 1.0, atol=1e-12)
             assert gamma.min() >= sg.GAMMA_MIN - 1e-15 and gamma.max() <= sg.GAMMA_MAX + 1e-15
+            assert np.allclose(d["gamma_all"].sum(-1), 1.0, atol=1e-12)
             if scale > 100:      # gamma stays valid whatever the head says; k may overflow
                 continue
-            k = np.exp(logk)
+            k = np.exp(d["logk"])
             assert np.all(np.isfinite(k)) and np.all(k > 0)
-            assert np.all(np.isfinite(low))
-            tn = {key: torch.as_tensor(v) for key, v in norm.items()}
-            g_t, lk_t, low_t, _ = sg.decode_torch(torch.as_tensor(out), tn, n, m, k_mode,
-                                                  torch.as_tensor(rfe), torch.as_tensor(bb.x),
-                                                  torch.as_tensor(bb.w), torch.as_tensor(poses), 4)
-            np.testing.assert_allclose(g_t.numpy(), gamma, atol=1e-12)
-            np.testing.assert_allclose(lk_t.numpy(), logk, rtol=1e-8, atol=1e-8)
+            assert np.all(np.isfinite(d["log_omega_hat"]))
+            t = sg.decode_torch(torch.as_tensor(out), tn, n, m, k_mode, torch.as_tensor(rfe),
+                                torch.as_tensor(bb.x), torch.as_tensor(bb.w),
+                                torch.as_tensor(poses), 4, H)
+            np.testing.assert_array_equal(t["select"].numpy(), d["select"])
+            np.testing.assert_allclose(t["gamma"].numpy(), gamma, atol=1e-12)
+            np.testing.assert_allclose(t["logk"].numpy(), d["logk"], rtol=1e-8, atol=1e-8)
+            if H > 1:     # the kept candidate is the best against the predicted frequencies
+                lam_p = np.exp(2 * d["log_omega_hat"][:, :4])
+                for h in range(H):
+                    mu_h = sg.prbdm_eigenvalues(bb.x, bb.w, d["gamma_all"][:, h],
+                                                poses[sg.SELECT_POSES])
+                    kp = sg._project_k(mu_h[..., :4], lam_p)
+                    mu_s = sg.prbdm_eigenvalues(bb.x, bb.w, gamma, poses[sg.SELECT_POSES])
+                    ks = sg._project_k(mu_s[..., :4], lam_p)
+                    loss_h = sg.loss_percent_np(mu_h * kp[..., None], lam_p, 4)
+                    loss_s = sg.loss_percent_np(mu_s * ks[..., None], lam_p, 4)
+                    assert np.all(loss_s <= loss_h + 1e-12)
 
 
 def test_numpy_prbdm_matches_model():
@@ -219,7 +232,8 @@ def test_checkpoint_round_trip(tmp_path):
     # weights -> torch network -> save -> load: same predictions, and the torch forward agrees
     net = sg.SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
                           width=meta["network"]["width"], depth=meta["network"]["depth"],
-                          k_mode=src.k_mode)
+                          k_mode=src.k_mode, hypotheses=src.hypotheses)
+    assert src.hypotheses > 1
     tensors, _ = sg._read_safetensors(tiny_checkpoint())
     net.load_weights(tensors)
     path = sg.save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
@@ -236,12 +250,12 @@ def test_checkpoint_round_trip(tmp_path):
     norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
     rfe0 = 2 * src.feature_spec.cells
     with torch.no_grad():
-        g, lk, low, _ = net.outputs(f_std, norm, torch.as_tensor(
+        d = net.outputs(f_std, norm, torch.as_tensor(
             feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
             torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes)
-    np.testing.assert_allclose(g.numpy(), a.gamma, atol=2e-6)
-    np.testing.assert_allclose(lk.numpy(), np.log(a.k), atol=2e-5)
-    np.testing.assert_allclose(low.numpy(), a.log_omega_hat, atol=2e-5)
+    np.testing.assert_allclose(d["gamma"].numpy(), a.gamma, atol=2e-6)
+    np.testing.assert_allclose(d["logk"].numpy(), np.log(a.k), atol=2e-5)
+    np.testing.assert_allclose(d["log_omega_hat"].numpy(), a.log_omega_hat, atol=2e-5)
 
 
 def test_checkpoint_loading_refuses_bad_files(tmp_path):
@@ -295,9 +309,12 @@ def test_predict_from_features_and_ood_warning():
     beams = [random_beam(7, i) for i in range(4)]
     pb = sur.predict(beams, warn=False)
     pf = sur.predict(sur.features(beams), warn=False)
-    np.testing.assert_array_equal(pf.gamma, pb.gamma)
     np.testing.assert_array_equal(pf.log_omega_hat, pb.log_omega_hat)
-    assert pf.omega is None and pf.omega_truth is None
+    np.testing.assert_array_equal(pf.extra["gamma_candidates"], pb.extra["gamma_candidates"])
+    rows = np.arange(4)
+    np.testing.assert_array_equal(pb.extra["gamma_candidates"][rows, pb.extra["selected"]],
+                                  pb.gamma)
+    assert pf.omega is None and pf.omega_truth is None and pf.k is None and pf.gamma is None
     with pytest.raises(BadInput, match="features"):
         sur.predict(np.zeros((2, 3)))
     # a deep notch near the root: far outside anything in training

@@ -49,6 +49,9 @@ width = 256                          # hidden units per layer
 depth = 3                            # hidden layers
 k_mode = "projection"                # SCFs: 'projection' (least squares against the predicted
                                      # truth frequencies) or 'direct' (log k regressed)
+hypotheses = 4                       # candidate segmentations per beam; the one whose PRBDM best
+                                     # matches the predicted truth frequencies is kept
+wta_eps = 0.05                       # candidates' losses: (1 - eps) * best + eps * mean
 batch_size = 128
 lr = 2e-3
 weight_decay = 1e-5
@@ -58,6 +61,8 @@ lr_patience = 12                     # epochs without improvement before halving
 max_minutes = 8.0                    # wall-clock limit per mode
 phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
 freq_weight = 1.0                    # weight of the frequency head's label term
+vp_weight = 1.0                      # physics: + vp_weight * the loss of the predicted gamma with
+                                     # its best SCFs (variable projection on the truth, as the fit)
 cells = 16                           # feature cells along x / L
 rfe_segments = 12                    # links of the rigid-finite-element frequency estimate
 threads = 1                          # torch threads
@@ -182,9 +187,11 @@ def beam_rows(rows):
 
 
 def outputs(net, rows):
-    """gamma, log k, log omega_hat correction, mu (None in direct k mode) for data rows."""
-    gamma, logk, low, mu = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses, r)
-    return gamma, logk, low - RFE[rows], mu
+    """Decoded network outputs for data rows (dict, see prbdm.surrogate.decode_torch), with
+    ``corr`` the predicted correction of the rigid-finite-element log frequencies."""
+    d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses, r)
+    d["corr"] = d["log_omega_hat"] - RFE[rows]
+    return d
 
 
 def physics_loss(rows, gamma, logk, mu=None):
@@ -195,10 +202,30 @@ def physics_loss(rows, gamma, logk, mu=None):
     return model.loss_percent(lam, lam_hat[rows], r)
 
 
-def label_terms(rows, gamma, logk, corr):
-    lg = (((gamma - Yg[rows]) / norm["gamma_std"]) ** 2).mean()
-    lk = (((logk.float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
-    lc = (((corr - Yc[rows]) / norm["freq_std"]) ** 2).mean()
+def wta(values):
+    """Relaxed winner-takes-all over the candidates (B, H) -> (B,)."""
+    if values.shape[1] == 1:
+        return values[:, 0]
+    return (1 - wta_eps) * values.min(1).values + wta_eps * values.mean(1)
+
+
+def vp_loss(rows, d):
+    """Per-beam PRBDM loss [%] of the candidate segmentations with their best SCFs for the truth
+    (the fit's own objective, SPEC §3 Eq. 13 after variable projection), relaxed min over the
+    candidates: what the proposed gammas alone can reach."""
+    if d["mu_all"] is None:
+        mu_all = model.eigenvalues_unit_k(beam_rows(rows), d["gamma_all"].double(), poses, "beam")
+    else:
+        mu_all = d["mu_all"]
+    _, loss = sg._candidate_losses(mu_all[..., :r], lam_hat[rows])
+    return wta(loss)
+
+
+def label_terms(rows, d):
+    ga = d["gamma_all"]
+    lg = wta((((ga - Yg[rows][:, None]) / norm["gamma_std"]) ** 2).mean(-1)).mean()
+    lk = (((d["logk"].float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
+    lc = (((d["corr"] - Yc[rows]) / norm["freq_std"]) ** 2).mean()
     return lg, lk, lc
 
 
@@ -206,9 +233,9 @@ def label_terms(rows, gamma, logk, corr):
 def evaluate(net, rows):
     rows = torch.as_tensor(rows)
     net.eval()
-    gamma, logk, corr, mu = outputs(net, rows)
-    phys = physics_loss(rows, gamma, logk, mu).numpy()
-    err = np.abs(np.expm1((corr - Yc[rows]).double().numpy()))      # relative frequency error
+    d = outputs(net, rows)
+    phys = physics_loss(rows, d["gamma"], d["logk"], d["mu"]).numpy()
+    err = np.abs(np.expm1((d["corr"] - Yc[rows]).double().numpy()))  # relative frequency error
     net.train()
     return {"loss_mean": float(phys.mean()), "loss_median": float(np.median(phys)),
             "loss_p95": float(np.percentile(phys, 95)),
@@ -221,12 +248,23 @@ Net = sg.SurrogateNet
 
 
 def make_net():
-    net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode)
-    with torch.no_grad():       # start at the mean label: gamma logits, standardised k and freq 0
+    net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
+              hypotheses=hypotheses)
+    with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
         g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
-        net.head.bias[:n + 1] = torch.log(g / g.sum())
+        # candidates start apart: the mean label, rigid-finite-element-like, a long root link
+        # (the two families of fitted optima), then random segmentations
+        long_root = torch.full((n + 1,), 0.3 / n)
+        long_root[0] = 0.7
+        starts = [g / g.sum(), torch.as_tensor(sg._uniform_gamma(n), dtype=torch.float32),
+                  long_root]
+        gen0 = torch.Generator().manual_seed(seed + 1)
+        while len(starts) < hypotheses:
+            starts.append(torch.rand(n + 1, generator=gen0) + 0.2)
+        for h in range(hypotheses):
+            net.head.bias[h * (n + 1):(h + 1) * (n + 1)] = torch.log(starts[h] / starts[h].sum())
     return net
 
 
@@ -246,15 +284,17 @@ def train(mode):
         tot = 0.0
         for i in range(0, len(perm), batch_size):
             rows = perm[i:i + batch_size]
-            gamma, logk, corr, mu = outputs(net, rows)
-            lg, lk, lc = label_terms(rows, gamma, logk, corr)
+            d = outputs(net, rows)
+            lg, lk, lc = label_terms(rows, d)
+            if mode in ("physics", "combined"):
+                phys = (physics_loss(rows, d["gamma"], d["logk"], d["mu"]).mean()
+                        + vp_weight * vp_loss(rows, d).mean()).float()
             if mode == "label":
                 loss = lg + lk + freq_weight * lc
             elif mode == "physics":
-                loss = physics_loss(rows, gamma, logk, mu).mean().float() + freq_weight * lc
+                loss = phys + freq_weight * lc
             elif mode == "combined":
-                loss = lg + lk + freq_weight * lc + \
-                    phys_weight * physics_loss(rows, gamma, logk, mu).mean().float()
+                loss = lg + lk + freq_weight * lc + phys_weight * phys
             else:
                 sys.exit(f"train_surrogate: unknown mode {mode!r} (label, physics, combined)")
             opt.zero_grad(set_to_none=True)
@@ -319,7 +359,7 @@ meta = {
                                                 if spec["truth"] == "plate" else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
-                "k_mode": k_mode,
+                "k_mode": k_mode, "hypotheses": hypotheses,
                 "parameters": int(sum(p.numel() for p in net.parameters())),
                 "outputs": "see prbdm.surrogate.decode_numpy"},
     "dataset": {"path": str(Path(data).resolve()), "spec": spec, "size": N,
