@@ -23,7 +23,7 @@ Damping: a first-mode damping ratio ``zeta`` becomes stiffness-proportional damp
 (``zeta_r = zeta omega_r / omega_1``), so both have ratio zeta on their first mode.
 
 The truth (:func:`beam_modes`): the Euler-Bernoulli cantilever of SPEC §2 (``b = 2 w``,
-``I = b t^3/12``, ``A = b t``) discretised here by a small dense cubic-Hermite model (stations as
+``I = b t^3/12``, ``A = b t``) discretised here by a small cubic-Hermite model (stations as
 nodes plus a uniform mesh, exact Gauss quadrature) that gives SI mode shapes normalised to unit
 modal mass; its frequencies agree with :mod:`prbdm.truth`'s beam model (tested). The tip motion is
 the modal superposition ``w(L, t) = sum_r phi_r(L) eta_r(t)`` of its lowest R modes (default 20).
@@ -50,6 +50,8 @@ __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "si
 #: the truth is linear: beyond this tip deflection (fraction of L) the comparison gets a warning
 SMALL_DEFLECTION = 0.01
 MAX_PERIODS = 500
+#: most samples of the grid on which the periods are measured
+MAX_MEASURE_SAMPLES = 400_000
 
 
 # ----------------------------------------------------------------------------- the PRBDM
@@ -102,7 +104,8 @@ class ChainDynamics:
         return T.T @ (self.A * np.cos(q[:, None] - q[None, :])) @ T
 
     def coriolis(self, theta, theta_dot) -> np.ndarray:
-        """C(theta, theta') theta' [N m] in joint coordinates: T^T sum_b A_ab sin(q_a-q_b) q'_b^2."""
+        """C(theta, theta') theta' [N m] in joint coordinates:
+        T^T sum_b A_ab sin(q_a - q_b) q'_b^2."""
         q, qd = np.cumsum(theta), np.cumsum(theta_dot)
         h = (self.A * np.sin(q[:, None] - q[None, :])) @ (qd * qd)
         return np.cumsum(h[::-1])[::-1]            # T^T h
@@ -183,18 +186,19 @@ class BeamModes:
 
 
 def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
-    """Dense cubic-Hermite Euler-Bernoulli model of ``beam`` (SPEC §2), SI units.
+    """Cubic-Hermite Euler-Bernoulli model of ``beam`` (SPEC §2), SI units.
 
     Mesh: every span between stations divided uniformly, ``elements`` in all (default
-    ``max(120, 12 modes)``). Quadrature: 4-point Gauss per element, exact (the width is linear in
-    an element). The dense solver gives the mode shapes; each eigenvalue is then recomputed as the
-    Rayleigh quotient of its mode from the fields, ``int EI w''^2 / int rho A w^2``, sums of
-    positive terms: a dense solve alone loses ``eps * lambda_max / lambda_1`` (1e-6 here) to the
-    stiffness matrix's conditioning. The static tip compliance is the exact unit-load integral
-    ``int (L - x)^2 / EI dx``.
+    ``max(120, 12 modes)``). Quadrature: 4-point Gauss per element, exact (the width is linear
+    in an element). Sparse shift-invert Lanczos gives the mode shapes; each eigenvalue is then
+    recomputed as the Rayleigh quotient of its mode from the fields, ``int EI w''^2 /
+    int rho A w^2``, sums of positive terms: the matrix eigenvalues alone lose
+    ``eps * lambda_max / lambda_1`` (1e-6 here) to the stiffness matrix's conditioning. The
+    static tip compliance is the exact unit-load integral ``int (L - x)^2 / EI dx``.
     """
+    import scipy.sparse as sp
     from scipy.integrate import quad
-    from scipy.linalg import eigh
+    from scipy.sparse.linalg import eigsh
 
     L = beam.length
     xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)
@@ -219,17 +223,18 @@ def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
     Me = np.einsum("eiq,eq,ejq->eij", H, rAw, H)
     nd = 2 * nodes.size
     dofs = 2 * np.arange(nodes.size - 1)[:, None] + np.arange(4)  # (ne, 4)
-    K = np.zeros((nd, nd))
-    M = np.zeros((nd, nd))
-    np.add.at(K, (dofs[:, :, None], dofs[:, None, :]), Ke)
-    np.add.at(M, (dofs[:, :, None], dofs[:, None, :]), Me)
-    K, M = K[2:, 2:], M[2:, 2:]                                   # clamp: w(0) = w'(0) = 0
-    R = min(int(modes), K.shape[0])
-    d = 1 / np.sqrt(np.diag(K))                                   # unit diagonal of K
-    _, vec = eigh(K * d[:, None] * d[None, :], M * d[:, None] * d[None, :],
-                  subset_by_index=[0, R - 1])
+    rows = np.broadcast_to(dofs[:, :, None], Ke.shape).ravel()
+    cols = np.broadcast_to(dofs[:, None, :], Ke.shape).ravel()
+    K = sp.csc_matrix((Ke.ravel(), (rows, cols)), shape=(nd, nd))[2:, 2:]   # clamp: w = w' = 0
+    M = sp.csc_matrix((Me.ravel(), (rows, cols)), shape=(nd, nd))[2:, 2:]
+    R = min(int(modes), K.shape[0] - 2)
+    D = sp.diags(1 / np.sqrt(K.diagonal()))                        # unit diagonal of K
+    # sparse shift-invert Lanczos (banded LU, no multithreaded dense BLAS), fixed start vector
+    _, vec = eigsh((D @ K @ D).tocsc(), k=R, M=(D @ M @ D).tocsc(), sigma=0.0, which="LM",
+                   v0=np.ones(K.shape[0]))
+    vec = D @ vec
     phi = np.zeros((nd, R))
-    phi[2:] = vec * d[:, None]
+    phi[2:] = vec
     coef = phi[dofs]                                               # (ne, 4, R)
     curv = np.einsum("eiq,eir->eqr", H2, coef)
     val = np.einsum("eiq,eir->eqr", H, coef)
@@ -282,24 +287,41 @@ def zero_crossing_period(t, y) -> float:
 
 
 def dominant_frequency(t, y, guess: float, span: float = 0.3) -> float:
-    """Frequency [rad/s] of the strongest component of ``y`` within ``guess * (1 +- span)``: the
-    maximum of the Hann-windowed Fourier amplitude, located on a grid and refined by Brent's
-    method. Samples uniform in t. Higher modes several times faster barely leak into it."""
+    """Frequency [rad/s] of the strongest sinusoid in ``y`` within ``guess * (1 +- span)``.
+
+    For each trial frequency, a Hann-weighted least-squares fit of ``a cos(w t) + b sin(w t)``;
+    the frequency that explains most of the signal is located by the peak of the zero-padded FFT
+    and refined by Brent's method. Unlike a Fourier peak, the fit is exact for a pure sinusoid
+    however few periods are recorded (no bias from the negative-frequency image); the window
+    keeps modes several times faster from leaking in. Samples uniform in t.
+    """
     from scipy.optimize import minimize_scalar
 
     t, y = np.asarray(t, float), np.asarray(y, float)
-    win = np.hanning(t.size)
-    yw = (y - np.mean(y)) * win
-    tc = t - t[0]
+    W = np.hanning(t.size + 2)[1:-1]
+    tc = t - (t[0] + t[-1]) / 2
+    yw = W * (y - np.average(y, weights=W))
 
-    def neg_amp(w):
-        return -abs(np.sum(yw * np.exp(-1j * w * tc)))
+    def neg_fit(w):
+        c, s = np.cos(w * tc), np.sin(w * tc)
+        G = np.array([[np.sum(W * c * c), np.sum(W * c * s)], [0.0, np.sum(W * s * s)]])
+        G[1, 0] = G[0, 1]
+        r = np.array([yw @ c, yw @ s])
+        return -float(r @ np.linalg.solve(G, r))
 
-    grid = np.linspace(guess * (1 - span), guess * (1 + span), 241)
-    k = int(np.argmin([neg_amp(w) for w in grid]))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    res = minimize_scalar(neg_amp, bounds=(lo, hi), method="bounded",
-                          options={"xatol": guess * 1e-12})
+    # coarse: the peak of the zero-padded Fourier amplitude within the span
+    pad = 8 * t.size
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    freqs = 2 * np.pi * np.fft.rfftfreq(pad, dt)
+    amp = np.abs(np.fft.rfft(yw, pad))
+    inside = np.flatnonzero((freqs >= guess * (1 - span)) & (freqs <= guess * (1 + span)))
+    if inside.size == 0:
+        raise ValueError("dominant_frequency: the record is too short for this span")
+    k = inside[np.argmax(amp[inside])]
+    step = freqs[1]
+    # fine: the best least-squares sinusoid within half a bin of the record either side
+    res = minimize_scalar(neg_fit, bounds=(max(freqs[k] - 4 * step, step), freqs[k] + 4 * step),
+                          method="bounded", options={"xatol": guess * 1e-12})
     return float(res.x)
 
 
@@ -374,14 +396,14 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
         y0 = np.concatenate([np.zeros(n), chain.impulse_velocity(amount)])
     count = int(math.ceil(duration / T1 * samples_per_period)) + 1
     t = np.linspace(0.0, duration, count)
-    scale_theta = max(np.abs(y0[:n]).max(), np.abs(y0[n:]).max() / chain.linear_frequencies(
-        np.zeros(n))[0])
-    atol = np.concatenate([np.full(n, 1e-3 * rtol * scale_theta),
-                           np.full(n, 1e-3 * rtol * scale_theta * chain.linear_frequencies(
-                               np.zeros(n))[-1])])
+    # absolute tolerances: rtol times the motion's scale (angle, and angle times omega_n)
+    omega0 = chain.linear_frequencies(np.zeros(n))
+    scale_theta = max(np.abs(y0[:n]).max(), np.abs(y0[n:]).max() / omega0[0])
+    atol = np.concatenate([np.full(n, rtol * scale_theta),
+                           np.full(n, rtol * scale_theta * omega0[-1])])
     ts = time.perf_counter()
     sol = solve_ivp(chain.rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=rtol,
-                    atol=atol)
+                    atol=atol, dense_output=True)
     ode_s = time.perf_counter() - ts
     if not sol.success:
         raise RuntimeError(f"solve_ivp failed: {sol.message}")
@@ -390,9 +412,15 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
     truth_kw = {kind: amount}
     tip_truth = modal_tip_response(modes, t, damping=damping, **truth_kw)
 
-    omega_lin = chain.linear_frequencies(np.zeros(n))
-    w_prbdm = dominant_frequency(t, tip_prbdm, omega_lin[0])
-    w_truth = dominant_frequency(t, tip_truth, modes.omega[0])
+    omega_lin = omega0
+    # the periods are measured on a grid fine enough for every mode of either model (4 samples
+    # per period of the fastest): on the output grid, fast modes would alias onto the first
+    fast = max(omega_lin[-1], modes.omega[-1]) / modes.omega[0]
+    count_m = int(min(MAX_MEASURE_SAMPLES, math.ceil(duration / T1 * 4 * fast))) + 1
+    tm = np.linspace(0.0, duration, count_m)
+    w_prbdm = dominant_frequency(tm, chain.tip(sol.sol(tm)[:n].T)[1], omega_lin[0])
+    w_truth = dominant_frequency(tm, modal_tip_response(modes, tm, damping=damping, **truth_kw),
+                                 modes.omega[0])
     T_prbdm, T_truth = 2 * math.pi / w_prbdm, 2 * math.pi / w_truth
     fit_err = None
     if "freq_error" in fit:
@@ -405,7 +433,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
         "joints": n, "law": desc["law"], "pose": desc["pose"]["index"],
         "pose_theta": desc["pose"]["theta"], "k": desc["pose"]["k"],
         "initial": {kind: amount}, "damping_ratio": float(damping), "duration_s": duration,
-        "samples": int(count),
+        "samples": int(count), "measure_samples": int(count_m),
         "omega_prbdm_linear": omega_lin.tolist(),
         "omega_truth": modes.omega.tolist(),
         "period_prbdm_s": T_prbdm, "period_truth_s": T_truth,
@@ -419,7 +447,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
         "energy_drift": (abs(chain.energy(theta[-1], sol.y[n:, -1])
                              - chain.energy(y0[:n], y0[n:])) / chain.energy(y0[:n], y0[n:])
                          if damping == 0 else None),
-        "truth": {"model": "Euler-Bernoulli modal superposition (dense cubic Hermite, "
+        "truth": {"model": "Euler-Bernoulli modal superposition (cubic Hermite, "
                            "prbdm.simulate.beam_modes)",
                   "modes": int(modes.omega.size), "elements": modes.elements,
                   "truncation": float(1 - np.sum(modes.tip ** 2 / modes.omega ** 2)
@@ -453,8 +481,9 @@ def plot_simulation(result: SimulationResult, path, title: str = "") -> None:
         ax.set_ylabel("tip deflection [mm]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title(title or f"free response: first-mode period PRBDM {info['period_prbdm_s']:.6g}"
-                      f" s, truth {T:.6g} s (error {100 * info['period_error']:.3g} %)",
+    axes[0].set_title(title or f"free response: first-mode period PRBDM "
+                      f"{info['period_prbdm_s']:.6g} s, truth {T:.6g} s "
+                      f"(error {100 * info['period_error']:.3g} %)",
                       fontsize=9)
     axes[1].set_title("last three periods", fontsize=9)
     fig.savefig(path, dpi=120)

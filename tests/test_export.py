@@ -2,7 +2,6 @@
 integrals, the URDF and MJCF as XML, MuJoCo's own linearisation and free vibration of the MJCF
 (skipped without mujoco), atomic writes and bad input (exit 2, one line)."""
 import json
-import math
 import os
 import xml.etree.ElementTree as ET
 
@@ -93,7 +92,8 @@ def test_stiffness_springref_and_frequencies_of_the_chosen_pose():
         assert K == pytest.approx(np.multiply(FIT["k"][i], s_ref), rel=1e-10)
         assert [h["springref"] for h in desc["hinges"]] == FIT["poses"][i]
         lam = eigenvalues(TAPERED, torch.tensor(GAMMA, dtype=torch.float64),
-                          torch.tensor([FIT["k"][i]], dtype=torch.float64), poses=[FIT["poses"][i][0]])[0]
+                          torch.tensor([FIT["k"][i]], dtype=torch.float64),
+                          poses=[FIT["poses"][i][0]])[0]
         assert desc["omega"] == pytest.approx(np.sqrt(lam.numpy()), rel=1e-14)
         assert desc["pose"]["index"] == i and desc["pose"]["k"] == FIT["k"][i]
     flat = prbdm_from_fit(TAPERED, FIT, pose=4, springref="zero")

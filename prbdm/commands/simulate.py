@@ -3,7 +3,8 @@
 Integrates the PRBDM's full nonlinear equations of motion (springs at rest straight, stiffness of
 the chosen pose's SCF; :mod:`prbdm.simulate`) from a small tip deflection or a tip impulse, and the
 Euler-Bernoulli beam's modal superposition from the same initial condition; compares the tip
-motions and their first-mode periods (both measured by the same Hann-windowed Fourier peak).
+motions and their first-mode periods (both measured by the same windowed least-squares sinusoid
+fit).
 With ``--joints`` the fit uses the linear pose set by default (``--poses linear``): small
 vibrations about the straight beam are what a simulation from rest compares against.
 

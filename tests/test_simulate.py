@@ -1,0 +1,198 @@
+"""``prbdm.simulate`` and ``prbdm simulate``: the closed-form chain dynamics against the torch model
+(mass matrix, and Coriolis terms from autograd of the kinetic energy), energy conservation of the
+nonlinear integration, the truth's modal model against prbdm.truth and the analytic uniform beam,
+and the first-mode period of a fitted PRBDM against the truth's."""
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+from scipy.integrate import solve_ivp
+
+from prbdm import cli
+from prbdm.export import prbdm_from_fit, run_fit
+from prbdm.geometry import Beam
+from prbdm.model import BeamTensors, links_from_gamma, mass_matrix
+from prbdm.simulate import (ChainDynamics, beam_modes, dominant_frequency, modal_tip_response,
+                            simulate, zero_crossing_period)
+
+TAPERED = Beam(x=[0.0, 0.35, 1.2], half_width=[0.18, 0.12, 0.05], thickness=0.02,
+               name="tapered")
+UNIFORM = Beam(x=[0.0, 1.0], half_width=[0.1812, 0.1812], thickness=0.040532, name="uniform")
+ALPHA = np.array([1.8751040687119611, 4.6940911329741745, 7.8547574382376126,
+                  10.995540734875467])   # cos(a) cosh(a) = -1
+GAMMA = [0.3, 0.2, 0.25, 0.25]
+HAND_FIT = {"gamma": GAMMA, "k": [1.0], "law": "beam", "poses": [[0.0, 0.0, 0.0]]}
+
+
+@pytest.fixture(scope="module")
+def linear_fit():
+    """A 3R PRBDM fitted to the linear pose (3 modes, 4 parameters: an exact fit)."""
+    return run_fit(TAPERED, 3, poses="linear", starts=8)
+
+
+def chain_of(fit=HAND_FIT, damping=0.0):
+    return ChainDynamics.from_description(prbdm_from_fit(TAPERED, fit, springref="zero",
+                                                         damping=damping))
+
+
+def test_mass_matrix_and_coriolis_equal_the_torch_model():
+    chain = chain_of()
+    bt = BeamTensors.from_beams(TAPERED)
+    links = links_from_gamma(bt, torch.tensor(GAMMA, dtype=torch.float64))
+    unit = TAPERED.material.rho * TAPERED.thickness * TAPERED.length ** 4
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        theta, thd = rng.uniform(-0.6, 0.6, 3), rng.uniform(-5, 5, 3)
+        th = torch.tensor(theta)
+        M = mass_matrix(links, th).detach().numpy() * unit
+        assert chain.mass_matrix(theta) == pytest.approx(M, rel=1e-12, abs=1e-14 * abs(M).max())
+        # Coriolis/centrifugal: C thd = Mdot thd - d/dtheta (1/2 thd^T M thd), by autograd
+        dM = torch.autograd.functional.jacobian(lambda t: mass_matrix(links, t), th).numpy()
+        dM *= unit
+        ref = np.einsum("ijk,k,j->i", dM, thd, thd) - 0.5 * np.einsum("ijk,i,j->k", dM, thd, thd)
+        assert chain.coriolis(theta, thd) == pytest.approx(ref, rel=1e-10,
+                                                           abs=1e-12 * abs(ref).max())
+        # and the right-hand side solves M thdd + C thd + K theta = 0
+        thdd = chain.rhs(0.0, np.concatenate([theta, thd]))[3:]
+        resid = chain.mass_matrix(theta) @ thdd + chain.coriolis(theta, thd) \
+            + chain.stiffness * theta
+        assert np.abs(resid).max() < 1e-9 * np.abs(chain.stiffness * theta).max()
+
+
+def test_nonlinear_motion_conserves_energy():
+    chain = chain_of()
+    y0 = np.array([0.3, -0.2, 0.4, 0.0, 0.0, 0.0])     # large angles: Coriolis terms matter
+    T1 = 2 * math.pi / chain.linear_frequencies()[0]
+    sol = solve_ivp(chain.rhs, (0, 3 * T1), y0, method="DOP853", rtol=1e-10, atol=1e-12)
+    e0 = chain.energy(y0[:3], y0[3:])
+    drift = max(abs(chain.energy(y[:3], y[3:]) - e0) for y in sol.y.T) / e0
+    assert drift < 1e-7
+
+
+def test_beam_modes_against_the_analytic_uniform_beam():
+    m = beam_modes(UNIFORM, 4)
+    E, rho, t, L = UNIFORM.material.E, UNIFORM.material.rho, UNIFORM.thickness, UNIFORM.length
+    EI, rA = E * 2 * 0.1812 * t ** 3 / 12, rho * 2 * 0.1812 * t
+    assert m.omega == pytest.approx(ALPHA ** 2 * math.sqrt(EI / (rA * L ** 4)), rel=1e-7)
+    assert m.omega[0] == pytest.approx(ALPHA[0] ** 2 * math.sqrt(EI / (rA * L ** 4)), rel=1e-9)
+    # unit modal mass: a uniform cantilever's mode normalised to int phi^2 = L has phi(L) = +-2
+    assert m.tip ** 2 * rA * L == pytest.approx(4.0, rel=1e-6)
+    assert m.static_compliance == pytest.approx(L ** 3 / (3 * EI), rel=1e-12)
+
+
+def test_beam_modes_against_prbdm_truth():
+    from prbdm.truth import bending_frequencies
+
+    ref = bending_frequencies(TAPERED, "beam", 4, elements=800).omega
+    assert beam_modes(TAPERED, 4).omega == pytest.approx(ref, rel=1e-7)
+
+
+def test_measurements_on_a_known_signal():
+    t = np.linspace(0, 20, 4001)
+    y = np.cos(2.0 * t) + 0.05 * np.cos(12.6 * t + 0.3)
+    assert dominant_frequency(t, y, 2.1) == pytest.approx(2.0, rel=1e-6)
+    assert zero_crossing_period(t, np.sin(2.0 * t)) == pytest.approx(math.pi, rel=1e-5)
+    assert math.isnan(zero_crossing_period(t[:10], np.sin(2.0 * t[:10])))
+
+
+def test_small_deflection_period_agrees_within_the_fit_error(linear_fit):
+    D = 1e-3 * TAPERED.length
+    res = simulate(TAPERED, linear_fit, tip_deflection=D, periods=5)
+    info = res.info
+    assert res.tip_prbdm[0] == pytest.approx(D, rel=1e-12)
+    assert res.tip_truth[0] == pytest.approx(D, rel=1e-4)       # 20 modes of the static shape
+    fit_err = info["fit_freq_error_mode1"]
+    assert fit_err is not None and fit_err < 1e-6
+    # the same estimator on both signals; its own error is ~1e-7 (docs/export.md)
+    assert info["period_error"] <= fit_err + 1e-6
+    assert info["omega_prbdm_linear"][0] == pytest.approx(info["omega_truth"][0],
+                                                          rel=fit_err + 1e-7)
+    assert info["max_tip_difference"] < 0.05
+    assert info["energy_drift"] < 1e-7
+
+
+def test_impulse_and_damping(linear_fit):
+    P = 0.5
+    res = simulate(TAPERED, linear_fit, tip_impulse=P, periods=4)
+    # an impulse excites the higher modes strongly; over 4 periods they bias the estimate ~1e-6
+    assert res.info["period_error"] < 1e-5
+    chain = ChainDynamics.from_description(prbdm_from_fit(TAPERED, linear_fit, springref="zero"))
+    # tip velocity just after the blow: lever^T M^-1 lever P (the chain's tip mobility)
+    v0 = chain.lever() @ chain.impulse_velocity(P)
+    assert v0 == pytest.approx(P * chain.lever() @ np.linalg.solve(
+        chain.mass_matrix(np.zeros(3)), chain.lever()), rel=1e-14)
+    # damping: ratio zeta on the first mode of both, and the two tip motions agree
+    zeta = 0.02
+    res = simulate(TAPERED, linear_fit, damping=zeta, periods=6)
+    assert res.info["period_error"] < 1e-6
+    assert res.info["max_tip_difference"] < 0.05
+    m = beam_modes(TAPERED, 20)
+    Td = 2 * math.pi / (m.omega[0] * math.sqrt(1 - zeta ** 2))     # damped first-mode period
+    assert res.info["period_truth_s"] == pytest.approx(Td, rel=1e-5)   # estimator: 3e-6 here
+    # once the (more damped) higher modes have died out, the envelope is exp(-zeta omega_1 t)
+    peaks = modal_tip_response(m, [3 * Td, 7 * Td], tip_deflection=1e-3 * TAPERED.length,
+                               damping=zeta)
+    assert peaks[1] / peaks[0] == pytest.approx(math.exp(-zeta * m.omega[0] * 4 * Td), rel=3e-5)
+    # the truth's response is the sum of its damped modes
+    m = beam_modes(TAPERED, 20)
+    again = modal_tip_response(m, res.t, tip_deflection=1e-3 * TAPERED.length, damping=zeta)
+    assert again == pytest.approx(res.tip_truth, abs=1e-15)
+
+
+# ----------------------------------------------------------------------------- command line
+@pytest.fixture
+def run(monkeypatch, capsys):
+    monkeypatch.setitem(cli.COMMANDS, "export", ("prbdm.commands.export", "export a PRBDM"))
+    monkeypatch.setitem(cli.COMMANDS, "simulate", ("prbdm.commands.simulate", "simulate"))
+
+    def go(*argv):
+        try:
+            rc = cli.main(list(map(str, argv)))
+        except SystemExit as exc:
+            rc = exc.code
+        out, err = capsys.readouterr()
+        return rc, out, err
+    return go
+
+
+def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps(linear_fit))
+    T1 = 2 * math.pi / linear_fit["omega_truth"][0]
+    png = tmp_path / "sim.png"
+    rc, out, err = run("simulate", beam, "--from", fit, "--duration", 5 * T1, "--json",
+                       "--plot", png)
+    assert rc == 0, err
+    rep = json.loads(out)
+    assert len(rep["t"]) == len(rep["tip_prbdm"]) == len(rep["tip_truth"]) > 300
+    assert rep["period_error"] < 1e-5 and rep["initial"] == {"tip_deflection": 0.0012}
+    assert png.stat().st_size > 10000
+    rc, out, err = run("simulate", beam, "--from", fit, "--duration", 3 * T1,
+                       "--tip-impulse", 1)
+    assert rc == 0, err
+    assert "first-mode period" in out and "period error" in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--tip-deflection", "0.01", "--tip-impulse", "1"], "not allowed with"),
+    (["--tip-deflection", "1.0"], "--tip-deflection: must be non-zero with"),
+    (["--tip-deflection", "0"], "--tip-deflection: must be non-zero with"),
+    (["--duration", "-1"], "--duration"),
+    (["--duration", "1000"], "--duration: at most 500"),
+    (["--plot", "x.gif"], "--plot: file must end in"),
+    (["--pose", "2"], r"--pose: must be a pose index in \[0, 0\]"),
+])
+def test_cli_simulate_bad_input(run, tmp_path, args, message):
+    import re
+
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps(HAND_FIT))
+    rc, out, err = run("simulate", beam, "--from", fit, *args)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert re.search(message, err), err
