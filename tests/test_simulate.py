@@ -106,6 +106,7 @@ def test_small_deflection_period_agrees_within_the_fit_error(linear_fit):
     fit_err = info["fit_freq_error_mode1"]
     assert fit_err is not None and fit_err < 1e-6
     # the same estimator on both signals; its own error is ~1e-7 (docs/export.md)
+    assert info["fit_truth_difference_mode1"] < 1e-7
     assert info["period_error"] <= fit_err + 1e-6
     assert info["omega_prbdm_linear"][0] == pytest.approx(info["omega_truth"][0],
                                                           rel=fit_err + 1e-7)

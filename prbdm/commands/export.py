@@ -49,7 +49,7 @@ def add_source_arguments(parser, default_poses: str):
     """BEAM, ``--joints N | --from FIT.json`` and the fit options (used with ``--joints``)."""
     add_beam_argument(parser)
     src = parser.add_mutually_exclusive_group(required=True)
-    src.add_argument("--joints", "-n", type=positive_int(1, 39),
+    src.add_argument("--joints", "-n", type=positive_int(1, 39), metavar="N",
                      help="fit an nR-PRBDM here (truth: Euler-Bernoulli FEM)")
     src.add_argument("--from", dest="fit_file", metavar="FIT.json",
                      help="use the PRBDM of a saved 'prbdm fit --json' output (- for stdin)")
