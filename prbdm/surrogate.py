@@ -349,7 +349,7 @@ class FeatureSpec:
     frequencies, and the truth model (``plate`` adds the aspect ratio and nu)."""
 
     cells: int = 16
-    rfe_segments: int = 12
+    rfe_segments: int = 24
     rfe_modes: int = 5
     truth: str = "beam"
 

@@ -56,15 +56,15 @@ batch_size = 128
 lr = 2e-3
 weight_decay = 1e-5
 max_epochs = 400
-patience = 40                        # epochs without a better validation loss before stopping
-lr_patience = 12                     # epochs without improvement before halving the lr
+patience = 80                        # epochs without a better validation loss before stopping
+lr_patience = 20                     # epochs without improvement before halving the lr
 max_minutes = 8.0                    # wall-clock limit per mode
 phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
 freq_weight = 1.0                    # weight of the frequency head's label term
 vp_weight = 1.0                      # physics: + vp_weight * the loss of the predicted gamma with
                                      # its best SCFs (variable projection on the truth, as the fit)
 cells = 16                           # feature cells along x / L
-rfe_segments = 12                    # links of the rigid-finite-element frequency estimate
+rfe_segments = 24                    # links of the rigid-finite-element frequency estimate
 threads = 1                          # torch threads
 quiet = False                        # only the summary lines
 # -------------------------------------------------------------------------------------------
