@@ -615,6 +615,7 @@ def save_checkpoint(path, weights: dict, metadata: dict) -> Path:
     tmp = path.with_name(f".{path.name}.tmp")
     save_file({k: np.ascontiguousarray(v) for k, v in weights.items()}, str(tmp),
               metadata={"prbdm": text})
+    os.chmod(tmp, 0o644)
     os.replace(tmp, path)
     path.with_suffix(".json").write_text(json.dumps(meta, indent=1, allow_nan=False) + "\n")
     return path
