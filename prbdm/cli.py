@@ -22,6 +22,10 @@ COMMANDS = {
     "eval": ("prbdm.commands.eval", "eigenfrequencies of a given PRBDM"),
     "fit": ("prbdm.commands.fit", "optimise a PRBDM to match a beam's truth frequencies"),
     "dataset": ("prbdm.commands.dataset", "generate or inspect a labelled data set of random beams"),
+    "predict": ("prbdm.commands.predict", "PRBDM and truth frequencies from the trained network (no FEM)"),
+    "compare": ("prbdm.commands.compare", "truth vs network vs optimised fit vs network-then-refined"),
+    "export": ("prbdm.commands.export", "write a PRBDM for a simulator: MuJoCo MJCF, URDF or JSON"),
+    "simulate": ("prbdm.commands.simulate", "time response of a PRBDM against the beam's modal superposition"),
 }
 
 
