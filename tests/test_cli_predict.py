@@ -179,3 +179,44 @@ def test_compare_runs(capsys, beam_file):
     assert rc == 0 and "refined" in out and "network (direct)" in out
     assert_bad(*run(capsys, "compare", beam_file(), "--joints", 3, "--checkpoint", ck),
                "trained for 2 joints")
+
+
+def test_predict_output_exports(capsys, beam_file, tmp_path):
+    """`prbdm predict --json` feeds `prbdm export --from`: the exported chain is the network's
+    PRBDM (the NumPy PRBDM of predict against the torch model of export), and a prediction made
+    for another beam is refused."""
+    ck = str(tiny_checkpoint())
+    rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ck, "--json")
+    assert rc == 0, err
+    p = json.loads(out)
+    pred_file = tmp_path / "predict.json"
+    pred_file.write_text(out)
+    for pose in (0, len(p["poses"]) - 1):
+        desc_file = tmp_path / f"panel{pose}.json"
+        rc, out, err = run(capsys, "export", beam_file(), "--from", pred_file, "--pose", pose,
+                           "-o", desc_file, "--json")
+        assert rc == 0, err
+        e = json.loads(out)
+        np.testing.assert_allclose(e["omega"], p["omega"][pose], rtol=1e-8)
+        np.testing.assert_allclose(e["stiffness"], p["links"]["stiffness"][pose], rtol=1e-10)
+        desc = json.loads(desc_file.read_text())
+        assert desc["source"] == "network beam-n2.safetensors"
+        np.testing.assert_allclose(desc["links"]["joint_x"], p["links"]["joint_x"], rtol=1e-12)
+        np.testing.assert_allclose([b["mass"] for b in desc["bodies"][1:]], p["links"]["mass"],
+                                   rtol=1e-10)
+    try:
+        from prbdm.export import mujoco_linear_frequencies
+        import mujoco  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        xml = tmp_path / "panel.xml"
+        rc, out, err = run(capsys, "export", beam_file(), "--from", pred_file, "-o", xml)
+        assert rc == 0, err
+        omega, _ = mujoco_linear_frequencies(xml.read_text())
+        np.testing.assert_allclose(omega, p["omega"][0], rtol=1e-6)
+    # the check is on the joint positions, i.e. the length: a longer panel of the same shape
+    other = random_beam(11, 3).to_dict()
+    other["x"] = [1.5 * v for v in other["x"]]
+    assert_bad(*run(capsys, "export", beam_file(other), "--from", pred_file, "-o",
+                    tmp_path / "x.xml"), "different beam")

@@ -14,8 +14,9 @@ JSON (``--json``): ``gamma``, ``k`` (one per pose), ``law``, ``poses``, ``omega`
 network's direct prediction of the truth frequencies), ``links`` (the SI link table: ``joint_x``,
 ``length``, ``mass``, ``com``, ``inertia``, ``area_moment``, ``base_stiffness`` s_j and
 ``stiffness`` k_i s_j per pose [N m/rad]), ``checkpoint`` (path, name, truth, joints, data set
-size), ``truth``, ``joints``, ``modes``, ``beam``, ``warnings``, ``time_s`` (the prediction itself,
-start-up excluded).
+size), ``truth``, ``joints``, ``modes``, ``beam``, ``source`` (``network CHECKPOINT``),
+``warnings``, ``time_s`` (the prediction itself, start-up excluded). The output is a valid
+``prbdm export BEAM --from PREDICT.json`` input, like ``prbdm fit --json``'s.
 """
 from __future__ import annotations
 
@@ -77,6 +78,7 @@ def predict_one(sur, beam) -> dict:
                  "mass": beam.mass, "stations": len(beam.x)},
         "joints": sur.joints, "modes": sur.modes, "truth": sur.truth, "law": pred.law,
         "checkpoint": sur.describe(),
+        "source": f"network {sur.name}",     # what `prbdm export --from` records as the source
         "gamma": pred.gamma[0].tolist(), "k": pred.k[0].tolist(),
         "poses": pred.poses.tolist(),
         "omega": omega.tolist(), "freq_hz": (omega / (2 * math.pi)).tolist(),
