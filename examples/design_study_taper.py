@@ -18,9 +18,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from prbdm import Beam, surrogate
 from prbdm.export import export
+from prbdm.fit import fit_many
 from prbdm.truth import bending_frequencies
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -42,28 +44,33 @@ designs = [Beam(x=[0.0, L], half_width=[root, r * root], thickness=t) for r in t
 mass = np.array([b.mass for b in designs])
 
 # ---------------------------------------------------------------- the network, one batched call
-# The checkpoint saw random beams of length 1, widths up to 1 m, thickness 10-50 mm. What it
-# actually depends on is the shape w(x)/max(w) over x/L; a shape unlike the training beams
-# raises an OutOfDistributionWarning, so count them rather than let them scroll by.
+# The checkpoint saw random beams of length 1, widths up to 1 m, thickness 10-50 mm, but its
+# inputs are the shape w(x)/max(w) over x/L only, so size, thickness and material do not take a
+# design out of range; a shape unlike the training beams does, and raises an
+# OutOfDistributionWarning: count them rather than let them scroll by.
+t0 = time.perf_counter()
+net = surrogate.load_checkpoint(surrogate.default_checkpoint(joints=4, truth="beam"))
+t_load = time.perf_counter() - t0
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always", surrogate.OutOfDistributionWarning)
     t0 = time.perf_counter()
-    pred = surrogate.predict(designs, joints=4)      # default n = 4 checkpoint, beam truth
+    pred = net.predict(designs)
     t_net = time.perf_counter() - t0
 n_ood = int(pred.ood.any(axis=1).sum())
-print(f"{args.designs} designs, taper {taper[0]:.2f} ... {taper[-1]:.2f}: network in "
-      f"{t_net * 1e3:.1f} ms; {n_ood} of {args.designs} designs outside the training range "
-      f"({len(caught)} warning(s))")
+print(f"{args.designs} designs, taper {taper[0]:.2f} ... {taper[-1]:.2f}: checkpoint {net.name} "
+      f"({net.describe()['dataset_size']} training beams) loaded in {t_load * 1e3:.0f} ms, "
+      f"network in {t_net * 1e3:.1f} ms")
+print(f"{n_ood} of {args.designs} designs outside the training range ({len(caught)} warning(s))")
 f_direct = pred.omega_truth / two_pi            # (B, 5) the network's truth frequencies, Hz
 f_prbdm = pred.omega[:, 0, :] / two_pi          # (B, 4) its PRBDM's, pose 0 (theta = 0.1 rad)
 
 # Shape invariance: gamma and k depend on the planform's shape only, and every frequency scales
 # with sqrt(E t^2 / (rho L^4)). Doubling the thickness must leave gamma, k alone and double omega.
-thick = surrogate.predict([Beam(x=b.x, half_width=b.half_width, thickness=2 * t)
-                           for b in designs], joints=4)
-print(f"same panels at {2 * t * 1e3:g} mm: max change of gamma {np.abs(thick.gamma - pred.gamma).max():.1e}, "
-      f"of k {np.abs(thick.k / pred.k - 1).max():.1e}; frequency ratio "
-      f"{np.median(thick.omega_truth / pred.omega_truth):.6f}")
+thick = net.predict([Beam(x=b.x, half_width=b.half_width, thickness=2 * t) for b in designs])
+ratio = thick.omega_truth / pred.omega_truth
+dgamma, dk = np.abs(thick.gamma - pred.gamma).max(), np.abs(thick.k / pred.k - 1).max()
+print(f"same panels at {2 * t * 1e3:g} mm: gamma changes by {dgamma:.1e}, k by {dk:.1e}; "
+      f"frequencies x {ratio.min():.9f} ... {ratio.max():.9f}")
 
 # ---------------------------------------------------------------- the truth on a subset
 check = np.arange(0, args.designs, args.truth_every)
@@ -81,18 +88,15 @@ def loss(omega_pose, omega_true):
 loss_net = loss(pred.omega[check], truth)
 
 # ---------------------------------------------------------------- optimised fits, for comparison
-import torch                                    # noqa: E402  (only the fit needs it)
-
-from prbdm.fit import fit_many                  # noqa: E402
-
 torch.set_num_threads(1)    # small batched problems run faster on one thread on a busy machine
-fitted = check[np.linspace(0, len(check) - 1, min(args.fits, len(check))).round().astype(int)]
-rows = [int(np.flatnonzero(check == i)[0]) for i in fitted]
+rows = np.linspace(0, len(check) - 1, min(args.fits, len(check))).round().astype(int)
+fitted = check[rows]                            # spread over the checked designs
 t0 = time.perf_counter()
 fits = fit_many([designs[i] for i in fitted], truth[rows], joints=4, modes=4, seed=0)
 t_fit = (time.perf_counter() - t0) / len(fitted)
 f_fit = np.array([f.omega[0] for f in fits]) / two_pi
 loss_fit = np.array([f.loss_percent for f in fits])
+
 
 # ---------------------------------------------------------------- errors against the truth
 def err(f, ref):
@@ -129,18 +133,20 @@ f1_check = bending_frequencies(designs[best], model="beam", modes=1).freq_hz[0]
 print(f"\nfirst frequency nearest {args.target_hz:g} Hz: taper {taper[best]:.4f}, "
       f"mass {mass[best]:.2f} kg; network {f_direct[best, 0]:.4f} Hz, FEM {f1_check:.4f} Hz "
       f"({100 * (f_direct[best, 0] / f1_check - 1):+.3f} %)")
-prbdm = {"gamma": pred.gamma[best], "k": pred.k[best], "poses": pred.poses, "law": pred.law}
+# the same keys as `prbdm fit --json` and `prbdm predict --json`; springs at rest at pose 0
+chain = {"gamma": pred.gamma[best], "k": pred.k[best], "poses": pred.poses, "law": pred.law,
+         "source": "network, examples/design_study_taper.py"}
 xml_path = out / "design_study_taper.xml"
-xml = export(designs[best], prbdm, "mjcf", xml_path)        # springs at rest at pose 0
+xml = export(designs[best], chain, "mjcf", xml_path)
 print(f"wrote {xml_path}: gamma {', '.join(f'{g:.3f}' for g in pred.gamma[best])}, "
       f"k(pose 0) = {pred.k[best, 0]:.4f}")
 try:
     from prbdm.export import mujoco_linear_frequencies
 
     omega_mj, _ = mujoco_linear_frequencies(xml)
-    print(f"MuJoCo, linearised at rest: f1 {omega_mj[0] / two_pi:.4f} Hz; network PRBDM "
-          f"{f_prbdm[best, 0]:.4f} Hz (difference {omega_mj[0] / two_pi / f_prbdm[best, 0] - 1:.1e});"
-          f" FEM {f1_check:.4f} Hz")
+    f1_mj = omega_mj[0] / two_pi
+    print(f"MuJoCo, linearised at rest: f1 {f1_mj:.4f} Hz; network PRBDM {f_prbdm[best, 0]:.4f} Hz "
+          f"(difference {f1_mj / f_prbdm[best, 0] - 1:.1e}); FEM {f1_check:.4f} Hz")
     print("(a paper-pose PRBDM is made for deflected poses; for small vibrations about the "
           "straight panel fit with --poses linear, docs/export.md section 5)")
 except ImportError:
@@ -156,7 +162,7 @@ if args.plot or args.out:
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for r in range(4):
         color = f"C{r}"
-        ax.plot(taper, f_direct[:, r], color=color, label=f"mode {r + 1}: network")
+        ax.plot(taper, f_direct[:, r], color=color, label=f"mode {r + 1}: network, direct")
         ax.plot(taper, f_prbdm[:, r], color=color, ls=":", lw=1)
         ax.plot(taper[check], f_truth[:, r], "o", color=color, mfc="none", ms=5)
     ax.plot([], [], "k:", lw=1, label="network PRBDM, pose 0")

@@ -52,12 +52,11 @@ def test_example_runs(script, tmp_path):
 
 
 def check_design_study(out: str, folder: Path):
-    first = line_with(out, "200 designs")
-    assert "0 of 200 designs outside the training range (0 warning(s))" in first, first
+    assert "0 of 200 designs outside the training range (0 warning(s))" in out
 
     # shape invariance: twice the thickness, same gamma and k, twice the frequencies
-    dg, dk, ratio = numbers(line_with(out, "same panels at 40 mm").split(":", 1)[1])
-    assert dg < 1e-6 and dk < 1e-6 and abs(ratio - 2) < 1e-6
+    dg, dk, r_min, r_max = numbers(line_with(out, "same panels at 40 mm").split(":", 1)[1])
+    assert dg < 1e-6 and dk < 1e-6 and abs(r_min - 2) < 1e-8 and abs(r_max - 2) < 1e-8
 
     # docs/surrogate.md: direct frequency prediction, median 0.07-0.35 % per mode on held-out
     # random beams, p95 0.4-1.6 %; a smooth taper family is easier than random beams
