@@ -26,6 +26,7 @@ COMMANDS = {
     "compare": ("prbdm.commands.compare", "truth vs network vs optimised fit vs network-then-refined"),
     "export": ("prbdm.commands.export", "write a PRBDM for a simulator: MuJoCo MJCF, URDF or JSON"),
     "simulate": ("prbdm.commands.simulate", "time response of a PRBDM against the beam's modal superposition"),
+    "report": ("prbdm.commands.report", "error against run time of every way to get a model, on held-out beams"),
 }
 
 
