@@ -115,7 +115,7 @@ for name, e, lo in [("network, direct frequencies", err(f_direct[check, :4], f_t
     for stat, fn in [("median", np.median), ("max", np.max)]:
         cells = "".join(f"{v:9.3f}" for v in fn(e, axis=0))
         cells += f"{fn(lo):9.3f}" if lo is not None else f"{'':9s}"
-        print(f"{name if stat == 'median' else '':28s}{stat:>6s}{cells}")
+        print(f"{name if stat == 'median' else '':28s}{stat:>6s}{cells}".rstrip())
 print("(the PRBDMs' first-mode errors are the paper's loss at work: it weighs each mode by its "
       "eigenvalue, so mode 4 dominates; README section 4)")
 
