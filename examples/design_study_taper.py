@@ -64,6 +64,16 @@ print(f"{n_ood} of {args.designs} designs outside the training range ({len(caugh
 f_direct = pred.omega_truth / two_pi            # (B, 5) the network's truth frequencies, Hz
 f_prbdm = pred.omega[:, 0, :] / two_pi          # (B, 4) its PRBDM's, pose 0 (theta = 0.1 rad)
 
+# The network proposes several segmentations and keeps the one whose PRBDM best matches its own
+# predicted frequencies (docs/surrogate.md section 2). Where two are nearly as good the choice
+# flips from one design to the next, and gamma, k and the PRBDM's low modes jump: an optimiser
+# working on the PRBDM would see a step there, so say where.
+flips = np.flatnonzero(np.diff(pred.extra.get("selected", np.zeros(len(designs), int))))
+jump = np.abs(np.diff(pred.gamma, axis=0)).max(axis=1)
+print(f"the network's segmentation switches {len(flips)} time(s) along the sweep"
+      + "".join(f"; taper {taper[i]:.3f} -> {taper[i + 1]:.3f}: gamma moves by {jump[i]:.3f}, "
+                f"k(pose 0) {pred.k[i, 0]:.4g} -> {pred.k[i + 1, 0]:.4g}" for i in flips[:5]))
+
 # Shape invariance: gamma and k depend on the planform's shape only, and every frequency scales
 # with sqrt(E t^2 / (rho L^4)). Doubling the thickness must leave gamma, k alone and double omega.
 thick = net.predict([Beam(x=b.x, half_width=b.half_width, thickness=2 * t) for b in designs])
@@ -174,7 +184,7 @@ if args.plot or args.out:
     ax.axvline(taper[best], color="k", lw=0.8, ls="--")
     ax.set_yscale("log")
     ax.minorticks_off()
-    ax.set_yticks([10, 20, 50, 100, 200, 500], ["10", "20", "50", "100", "200", "500"])
+    ax.set_yticks([5, 10, 20, 50, 100, 200, 500], ["5", "10", "20", "50", "100", "200", "500"])
     ax.set_xlabel("taper ratio (tip width / root width)")
     ax.set_ylabel("bending frequency [Hz]")
     ax.set_title(f"{L:g} m x {t * 1e3:g} mm steel panel, root width {2 * root:g} m", fontsize=10)

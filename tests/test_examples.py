@@ -53,6 +53,9 @@ def test_example_runs(script, tmp_path):
 
 def check_design_study(out: str, folder: Path):
     assert "0 of 200 designs outside the training range (0 warning(s))" in out
+    # where the network's choice among its candidate segmentations flips, gamma jumps; the
+    # switch count is reported, not bounded (a property of the checkpoint, not a bug)
+    line_with(out, "the network's segmentation switches")
 
     # shape invariance: twice the thickness, same gamma and k, twice the frequencies
     dg, dk, r_min, r_max = numbers(line_with(out, "same panels at 40 mm").split(":", 1)[1])
