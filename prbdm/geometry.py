@@ -236,6 +236,23 @@ def _polygon_top(polygon, xi: float, scale: float) -> float:
     return float(cut.bounds[3])
 
 
+#: largest max/min half-width ratio the PRBDM accepts (model and surrogate). The truth stops at
+#: 1e6 (prbdm.truth.MAX_WIDTH_RATIO); the rigid links stay accurate far beyond, but past ~1e17
+#: a link's end width rounds to zero or below in float64 and the eigen-solve fails with an
+#: unhelpful LinAlgError (measured: a 0.1 m root tapering to 1e-18 m), so refuse well before.
+MAX_PRBDM_WIDTH_RATIO = 1e12
+
+
+def check_prbdm_width_ratio(beam: Beam) -> None:
+    """BadInput naming ``half_width`` if ``beam`` varies in width by more than
+    :data:`MAX_PRBDM_WIDTH_RATIO`."""
+    w = beam.half_width
+    ratio = float(w.max() / w.min())
+    if not ratio <= MAX_PRBDM_WIDTH_RATIO:
+        raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); the PRBDM accepts "
+                       f"at most {MAX_PRBDM_WIDTH_RATIO:.0e}")
+
+
 def load_beam(source) -> Beam:
     """Read a beam file (SPEC §1): a path, ``'-'`` for standard input, or a dict."""
     if isinstance(source, Beam):

@@ -28,6 +28,7 @@ import numpy as np
 import torch
 
 from .errors import BadInput
+from .geometry import check_prbdm_width_ratio
 from .sections import span_integrals
 
 __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stiffness",
@@ -62,6 +63,8 @@ class BeamTensors:
         beams = [beams] if single else list(beams)
         if not beams:
             raise BadInput("beams: need at least one beam")
+        for b in beams:
+            check_prbdm_width_ratio(b)
         S = max(len(b.x) for b in beams)
         xs = np.empty((len(beams), S))
         ws = np.empty((len(beams), S))

@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import BadInput
-from .geometry import Beam, Material
+from .geometry import Beam, Material, check_prbdm_width_ratio
 
 __all__ = ["BeamBatch", "FeatureSpec", "features", "feature_names", "prbdm_eigenvalues",
            "link_table", "Surrogate", "Prediction", "load_checkpoint", "save_checkpoint",
@@ -108,6 +108,7 @@ class BeamBatch:
             if not isinstance(b, Beam):
                 raise BadInput(f"beams: must be prbdm.geometry.Beam objects, got "
                                f"{type(b).__name__}")
+            check_prbdm_width_ratio(b)
         return cls.from_arrays([b.x for b in beams], [b.half_width for b in beams],
                                [b.thickness for b in beams], [b.material for b in beams])
 
