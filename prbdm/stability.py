@@ -1,0 +1,815 @@
+"""Stability on stiff and extreme cases (issue 7): the case suite as data, its checks, a report.
+
+Every case builds a panel or a model at an extreme of the input range, runs the truth, the PRBDM,
+its gradients, a fit or the network on it, and checks the outcome against an *independent*
+reference: the analytic Euler-Bernoulli cantilever, the mesh-free shooting solution of the
+variable-width beam ODE, exact scaling laws (omega scales with ``sqrt(E t^2 / (rho L^4))``), the
+rigid-finite-element limit (second-order convergence to the beam), a closed-form 2R model,
+finite differences, float64 against float32. A case passes when every number is finite, sorted
+and positive, gradients are finite, and each accuracy lies within its stated tolerance -- or
+when the input is refused with a :class:`prbdm.errors.BadInput` naming the field. Never a silent
+wrong number.
+
+    rows = run_suite(quick=True)        # one dict per case
+    print(format_markdown(rows))        # a Markdown section: table + the conditioning tricks
+
+Condition numbers are those of the matrices actually used: ``M`` (nondimensional, largest over
+the poses), ``K = diag(s)`` (joint stiffnesses, nondimensional), ``A = K^-1/2 M K^-1/2`` (the
+symmetric problem that :func:`prbdm.model.eigenvalues_unit_k` hands to ``eigvalsh``), and for
+cases with a beam truth the FEM stiffness before and after the diagonal scaling that
+:mod:`prbdm.truth.beam` applies before its LU.
+"""
+from __future__ import annotations
+
+import math
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import BadInput
+from .geometry import Beam, Material, random_beam
+
+__all__ = ["run_suite", "format_markdown", "CASES", "Case"]
+
+EPS32 = float(np.finfo(np.float32).eps)
+STEEL = Material()
+ALUMINIUM = Material(E=70e9, rho=2700.0, nu=0.33)
+TITANIUM = Material(E=114e9, rho=4430.0, nu=0.34)
+ELASTOMER = Material(E=5e6, rho=1100.0, nu=0.49)
+#: a link layout away from every symmetry, inside the bounds
+GAMMA4 = [0.3, 0.15, 0.2, 0.2, 0.15]
+#: |omega_RFE / omega_EB - 1| * n^2 for the uniform cantilever tends to 0.2294, 0.7971, 1.3078
+#: (modes 1-3) from above; mode 1 stays below 0.25 for every n >= 2 (0.2433 at n = 2), modes 2-3
+#: below 0.85 and 1.35 from n = 4 on (measured, benchmarks/bench_model.py --convergence)
+RFE_BOUND = (0.25, 0.85, 1.35)
+
+
+# ============================================================================ bookkeeping
+@dataclass
+class _Row:
+    checks: list = field(default_factory=list)
+    cond: dict = field(default_factory=dict)
+    grad_finite: bool | None = None
+    note: str = ""
+    key: dict | None = None
+    extra: dict = field(default_factory=dict)
+
+    def check(self, name: str, value, tol=None, ok=None, key=False):
+        """``value <= tol`` (finite) unless ``ok`` is given; value may be None for yes/no.
+        ``key``: the accuracy this case is summarised by in the table."""
+        if ok is None:
+            ok = value is not None and math.isfinite(value) and value <= tol
+        c = {"check": name, "value": None if value is None else float(value),
+             "tol": None if tol is None else float(tol), "passed": bool(ok)}
+        self.checks.append(c)
+        if key:
+            self.key = c
+        return ok
+
+    def conds(self, **kw):
+        for k, v in kw.items():
+            if v is not None:
+                self.cond[k] = max(self.cond.get(k, 0.0), float(v))
+
+    def grads(self, ok: bool):
+        self.grad_finite = bool(ok) if self.grad_finite is None else self.grad_finite and bool(ok)
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    varied: str
+    fn: object
+    kwargs: dict
+    quick: bool = True          # part of the quick suite (the tests); else full suite only
+
+
+# ============================================================================ helpers
+def _torch():
+    import torch
+    torch.set_num_threads(1)
+    return torch
+
+
+def _prbdm(row: _Row, beam: Beam, gamma, poses="paper", law="beam", dtype=None, grad=True):
+    """Nondimensional eigenvalues (m, n) as float64 NumPy, with the condition numbers of M, K and
+    A = K^-1/2 M K^-1/2 and the finiteness of d(sum log lam)/d(gamma, widths, thickness)."""
+    torch = _torch()
+    from . import model
+    dtype = dtype or torch.float64
+    bt = model.BeamTensors.from_beams(beam, dtype=dtype)
+    g_free = torch.tensor(np.asarray(gamma, dtype=np.float64)[:-1], dtype=dtype,
+                          requires_grad=grad)
+    w = bt.w.clone().requires_grad_(grad)
+    t = bt.thickness.clone().requires_grad_(grad)
+    b2 = model.BeamTensors(bt.x, w, bt.length, t, bt.E, bt.rho)
+    gam = torch.cat([g_free, 1 - g_free.sum(-1, keepdim=True)])
+    P = model.make_poses(poses, len(gamma) - 1, dtype)
+    lam = model.eigenvalues_unit_k(b2, gam, P, law)
+    with torch.no_grad():
+        links = model.links_from_gamma(b2, gam)
+        s = model.base_stiffness(b2, links, law)
+        M = model.mass_matrix(model._expand_links(links), P)
+        d = torch.rsqrt(s)[..., None, :]
+        A = d[..., :, None] * M * d[..., None, :]
+        row.conds(M=np.linalg.cond(M.double().numpy()).max(),
+                  K=float(s.max() / s.min()),
+                  A=np.linalg.cond(A.double().numpy()).max())
+    if grad:
+        gs = torch.autograd.grad(lam.log().sum(), [g_free, w, t], allow_unused=True)
+        row.grads(all(g is None or bool(torch.isfinite(g).all()) for g in gs))
+    return lam.detach().double().numpy()
+
+
+def _sane(lam) -> bool:
+    """Finite, positive and ascending per pose."""
+    lam = np.asarray(lam, dtype=np.float64)
+    return bool(np.all(np.isfinite(lam)) and np.all(lam > 0) and np.all(np.diff(lam, axis=-1) >= 0))
+
+
+def _rfe(row, beam, n, grad=False):
+    """Rigid-finite-element model (beam law, k = 1, [1/2, 1, ..., 1/2]/n, straight), its
+    frequencies in units of omega_0 = (t/L^2) sqrt(E/(12 rho)), the beam truth's unit."""
+    g = np.full(n + 1, 1.0 / n)
+    g[0] = g[-1] = 0.5 / n
+    lam = _prbdm(row, beam, g, "linear", grad=grad)[0]
+    return np.sqrt(12.0 * lam)
+
+
+def _truth(row, beam, modes=5):
+    """Beam truth frequencies in units of omega_0 (the nondimensional sqrt(lambda)), and the
+    condition numbers of its FEM stiffness before / after diagonal scaling."""
+    from .truth import bending_frequencies
+    res = bending_frequencies(beam, model="beam", modes=modes)
+    raw, scaled = _fem_cond(beam, modes)
+    row.conds(fem_raw=raw, fem=scaled)
+    return res.omega / res.omega_scale
+
+
+def _fem_cond(beam, modes=5):
+    """cond of the beam truth's free-DOF stiffness as assembled (nondimensional, graded mesh) and
+    after the symmetric diagonal scaling D K D that solve_beam factorises."""
+    from skfem import Basis, MeshLine
+    from .truth._hermite import LocalHermite
+    from .truth.beam import beam_nodes, stiffness
+    L = beam.length
+    xs, ws = beam.x / L, beam.half_width / L
+    nodes = beam_nodes(beam, None, True, modes)
+    basis = Basis(MeshLine(nodes), LocalHermite(), intorder=8)
+    beta = np.interp(basis.mapping.F(basis.X)[0], xs, ws) / ws.max()
+    K = stiffness.assemble(basis, beta=beta)
+    free = basis.complement_dofs(basis.get_dofs(lambda x: x[0] < 0.5 * nodes[1]).all())
+    Kf = K[free][:, free].toarray()
+    d = 1.0 / np.sqrt(np.diag(Kf))
+    return np.linalg.cond(Kf), np.linalg.cond(d[:, None] * Kf * d[None, :])
+
+
+def _shooting(beam, omega_hat, modes):
+    """Relative frequency error of the FEM against the mesh-free shooting solution."""
+    from .truth.shooting import shooting_eigenvalues
+    lam = shooting_eigenvalues(beam, omega_hat[:modes] ** 2)
+    return float(np.max(np.abs(omega_hat[:modes] / np.sqrt(lam) - 1)))
+
+
+def _analytic(modes):
+    from .truth.analytic import cantilever_roots
+    return cantilever_roots(modes) ** 2
+
+
+def _rel(a, b) -> float:
+    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1)))
+
+
+def _raises(fn, field_name) -> tuple[bool, str]:
+    try:
+        fn()
+    except BadInput as exc:
+        return field_name in str(exc), str(exc)
+    except Exception as exc:                                        # noqa: BLE001
+        return False, f"{type(exc).__name__}: {exc}"
+    return False, "accepted"
+
+
+def uniform_panel(half_width=0.18, thickness=0.02, material=STEEL, length=1.0) -> Beam:
+    return Beam(x=[0.0, length], half_width=[half_width, half_width], thickness=thickness,
+                material=material)
+
+
+def tapered_panel(material=STEEL, thickness=0.03, scale=1.0) -> Beam:
+    """The README's tapered panel (three stations, a kink at 0.35 L)."""
+    return Beam(x=[0.0, 0.35, 1.0], half_width=[0.18 * scale, 0.12 * scale, 0.05 * scale],
+                thickness=thickness, material=material)
+
+
+# ============================================================================ cases
+def case_scaling(row: _Row, beam: Beam, ref: Beam, analytic: bool):
+    """Size, thickness and material enter only through lambda_0 = E t^2 / (rho L^4): the
+    nondimensional eigenvalues of a shape must not change, and the SI ones must scale exactly."""
+    torch = _torch()
+    from . import model
+    lam = _prbdm(row, beam, GAMMA4)
+    lam_ref = _prbdm(_Row(), ref, GAMMA4, grad=False)
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
+    row.check("PRBDM nondim. eigenvalues = reference panel's", _rel(lam, lam_ref), 1e-10,
+              key=True)
+    g = torch.tensor(GAMMA4, dtype=torch.float64)
+    si = model.eigenvalues(beam, g).numpy()
+    si_ref = model.eigenvalues(ref, g).numpy()
+    l0 = [float(model.BeamTensors.from_beams(b).lambda0) for b in (beam, ref)]
+    row.check("SI eigenvalues scale by E t^2/(rho L^4)", _rel(si / l0[0], si_ref / l0[1]), 1e-10)
+    om = _truth(row, beam)
+    om_ref = _truth(_Row(), ref)
+    row.check("beam truth nondim. = reference panel's", _rel(om, om_ref), 1e-10)
+    if analytic:
+        row.check("beam truth vs cos a cosh a = -1 (5 modes)", _rel(om, _analytic(5)), 1e-4)
+        n = 20
+        e = np.abs(_rfe(row, beam, n, grad=True)[:3] / _analytic(3) - 1) * n * n
+        row.check("RFE n=20 vs analytic, n^2 err / bound (modes 1-3)",
+                  float(np.max(e / RFE_BOUND)), 1.0)
+    else:
+        row.check("beam truth vs shooting (modes 1-2)", _shooting(beam, om, 2), 1e-4)
+
+
+def case_width(row: _Row, beam: Beam, order: bool, shoot_modes: int, plate=None):
+    """Fast width changes: truth against the mesh-free shooting solution, PRBDM against the beam
+    (rigid-finite-element limit), widths scaled by 0.01 change nothing nondimensional. ``plate``:
+    None, "finite", "slender" (also within 2 % of the beam) or "refused" (BadInput expected)."""
+    from .truth.analytic import beam_omega_scale
+    om = _truth(row, beam)
+    row.check("beam truth finite, sorted, positive", None, ok=_sane(om))
+    row.check(f"beam truth vs shooting (modes 1-{shoot_modes})",
+              _shooting(beam, om, shoot_modes), 1e-4, key=True)
+    errs = {}
+    for n in (20, 40):
+        errs[n] = np.abs(_rfe(row, beam, n, grad=True)[:3] / om[:3] - 1)
+    row.check("RFE n=40 vs beam truth, n^2 |err| (modes 1-3)", float(errs[40].max() * 1600), 1.5)
+    if order:
+        p = math.log2(errs[20][0] / errs[40][0])
+        row.check("RFE observed order, mode 1 (n 20 -> 40), |p - 2|", abs(p - 2), 0.2)
+    lam = _prbdm(row, beam, GAMMA4)
+    small = Beam(x=beam.x, half_width=beam.half_width * 0.01, thickness=beam.thickness,
+                 material=beam.material)
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
+    row.check("PRBDM nondim. unchanged by widths x 0.01",
+              _rel(_prbdm(_Row(), small, GAMMA4, grad=False), lam), 1e-10)
+    if plate:
+        from .truth import bending_frequencies
+        try:
+            res = bending_frequencies(beam, model="plate", modes=4)
+        except BadInput as exc:
+            row.check("plate truth refused: BadInput naming half_width", None,
+                      ok=plate == "refused" and "half_width" in str(exc))
+            row.note = f"plate: {exc}"
+        else:
+            ratio = res.omega / (om[:4] * beam_omega_scale(beam))
+            row.check("plate truth finite, sorted, positive", None,
+                      ok=_sane(res.omega) and plate != "refused")
+            if plate == "slender":
+                # a narrow plate tends to the Euler-Bernoulli beam (+0.6 % at L/b = 10)
+                row.check("plate / beam - 1 (slender limit, modes 1-4)",
+                          float(np.abs(ratio - 1).max()), 0.02)
+            row.note = "plate / beam, modes 1-4: " + ", ".join(f"{r:.4f}" for r in ratio)
+
+
+def case_needle_beyond(row: _Row, tip: float):
+    """Beyond the truth's 1e6 width ratio: the truth refuses naming half_width; the PRBDM
+    answers up to 1e12 and refuses beyond (it would otherwise fail inside eigvalsh near 1e17)."""
+    beam = Beam(x=[0.0, 1.0], half_width=[0.1, tip], thickness=0.02)
+    from .truth import bending_frequencies
+    ok, msg = _raises(lambda: bending_frequencies(beam, model="beam"), "half_width")
+    row.check("beam truth refuses (BadInput naming half_width)", None, ok=ok)
+    if 0.1 / tip <= 1e12:
+        lam = _prbdm(row, beam, GAMMA4)
+        row.check("PRBDM finite, sorted, positive", None, ok=_sane(lam))
+        # the last joint's spring integrates dx / w up to the tip: for a linear taper that is
+        # (b - a) log(w_a / w_tip) / (w_a - w_tip), exact in closed form however thin the tip
+        torch = _torch()
+        from . import model
+        bt = model.BeamTensors.from_beams(beam)
+        links = model.links_from_gamma(bt, torch.tensor(GAMMA4, dtype=torch.float64))
+        a = float(links.cuts[-2] + links.cuts[-3]) / 2                # centre of link n-1
+        wa, wt = 0.1 + (tip - 0.1) * a, tip
+        exact = (1 - a) * math.log(wa / wt) / (wa - wt)
+        # rounding of the tip width itself (eps w_root / w_tip) bounds what any formula can do:
+        # ~eps ratio / log(ratio) relative, 1e-6 at 1e11:1
+        row.check("tip compliance int dx/w vs closed form", abs(
+            float(links.tributary_compliance[-1]) / exact - 1), 1e-6, key=True)
+        ref = _prbdm(_Row(), Beam(x=[0.0, 1.0], half_width=[0.1, 1e-6], thickness=0.02), GAMMA4,
+                     grad=False)
+        msg = (f"lam_n / lam_n of the 1e5:1 needle = {lam[0, -1] / ref[0, -1]:.3f} (the tip "
+               "compliance grows like log(1/w_tip)); the beam truth refuses it")
+    else:
+        ok, msg = _raises(lambda: _prbdm(row, beam, GAMMA4), "half_width")
+        row.check("PRBDM refuses (BadInput naming half_width)", None, ok=ok)
+    row.note = msg[:160]
+
+
+def case_joints(row: _Row, n: int):
+    """n joints: bounds feasible, paper poses inside n theta <= pi/2, RFE accuracy (exact
+    spring-pendulum for n = 1), autograd against central differences."""
+    torch = _torch()
+    from . import model
+    from .fit import gamma_from_z
+    beam = uniform_panel()
+    row.check("gamma bounds feasible: (n+1) 0.025 <= 1", None, ok=(n + 1) * model.GAMMA_MIN <= 1)
+    gen = torch.Generator().manual_seed(n)
+    g = gamma_from_z(torch.randn(64, n + 1, generator=gen, dtype=torch.float64))
+    row.check("gamma_from_z on the bounded simplex", float((g.sum(-1) - 1).abs().max()), 1e-14,
+              ok=bool((g >= model.GAMMA_MIN - 1e-15).all() and (g <= model.GAMMA_MAX).all()
+                      and (g.sum(-1) - 1).abs().max() < 1e-14))
+    P = model.paper_poses(n)
+    row.check("paper poses: n theta <= pi/2", float((n * P[:, 0]).max() - math.pi / 2), 1e-12)
+    gam = g[0].numpy()
+    lam = _prbdm(row, beam, gam, "paper")
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
+    om = _rfe(row, beam, n)
+    if n == 1:
+        # m = 2w/2, c = 1/4, J = m/48, s = w/6 (nondimensional): lam = s / (m c^2 + J) = 2
+        lam1 = _prbdm(_Row(), beam, [0.5, 0.5], [0.0, 0.4, 1.2], grad=False)
+        row.check("1R = spring-pendulum, lam = 2 at every pose", _rel(lam1, 2.0), 1e-12,
+                  key=True)
+    else:
+        e = np.abs(om[:3] / _analytic(3) - 1)
+        row.check("RFE mode 1 vs analytic (bound 0.25/n^2)", float(e[0]), RFE_BOUND[0] / n ** 2,
+                  key=True)
+        if n >= 4:
+            row.check("RFE modes 2-3 vs analytic, error / bound (0.85, 1.35)/n^2",
+                      float(np.max(e[1:] * n * n / np.array(RFE_BOUND[1:]))), 1.0)
+    # autograd against central differences along a random tangent direction of gamma
+    bt = model.BeamTensors.from_beams(beam)
+    x = torch.tensor(gam[:-1], dtype=torch.float64, requires_grad=True)
+    v = torch.randn(n, generator=gen, dtype=torch.float64) * 0.01
+
+    def f(gf):
+        full = torch.cat([gf, 1 - gf.sum(-1, keepdim=True)])
+        return model.eigenvalues_unit_k(bt, full, P).log().sum()
+
+    (gr,) = torch.autograd.grad(f(x), x)
+    # fourth-order stencil, steps ~1e-4 in gamma: for n = 39 the derivative is 1e-3 of |f|, and
+    # a second-order stencil cannot get below 4e-6 between truncation and rounding
+    h = 1e-2
+    with torch.no_grad():
+        fd = (8 * (f(x + h * v) - f(x - h * v)) - f(x + 2 * h * v) + f(x - 2 * h * v)) / (12 * h)
+    ad = float(gr @ v)
+    # relative to |grad| |v|: a random direction may be nearly orthogonal to the gradient
+    scale = float(torch.linalg.vector_norm(gr) * torch.linalg.vector_norm(v))
+    row.check("autograd vs finite differences (rel. to |grad||v|)", abs(ad - float(fd)) / scale,
+              1e-6)
+
+
+def _closed_form_2r(w, gamma, theta2):
+    """Eigenvalues of a uniform 2R model written out by hand: m = 2 w l, c = l/2, J = m l^2/12;
+    s_j = w / (6 span_j) over the tributary spans; M from the link-centre geometry."""
+    from scipy.linalg import eigh
+    g0, l1, l2 = gamma
+    m1, m2 = 2 * w * l1, 2 * w * l2
+    c1, c2 = l1 / 2, l2 / 2
+    J1, J2 = m1 * l1 ** 2 / 12, m2 * l2 ** 2 / 12
+    d2 = l1 ** 2 + c2 ** 2 + 2 * l1 * c2 * math.cos(theta2)
+    M = np.array([[m1 * c1 ** 2 + J1 + m2 * d2 + J2, m2 * (c2 ** 2 + l1 * c2 * math.cos(theta2)) + J2],
+                  [0.0, m2 * c2 ** 2 + J2]])
+    M[1, 0] = M[0, 1]
+    K = np.diag([w / (6 * (g0 + l1 / 2)), w / (6 * (l1 / 2 + l2))])
+    return eigh(K, M, eigvals_only=True)
+
+
+def case_poses_2r(row: _Row, thetas):
+    """2R against the closed form at, and beyond, the n theta = pi/2 limit."""
+    beam = uniform_panel()
+    gamma = [0.3, 0.3, 0.4]
+    worst = 0.0
+    for th in thetas:
+        lam = _prbdm(row, beam, gamma, [th])
+        row.check(f"finite, sorted, positive at theta = {th:.4g}", None, ok=_sane(lam))
+        worst = max(worst, _rel(lam[0], _closed_form_2r(0.18, gamma, th)))
+    row.check("2R vs hand-written closed form", worst, 1e-12, key=True)
+
+
+def case_poses_4r(row: _Row, totals):
+    """4R at n theta = pi/2 and beyond: M stays SPD (its J_j term is SPD at every pose), theta_1
+    turns the chain rigidly, -theta mirrors it; the command warns beyond the paper's range."""
+    beam = tapered_panel()
+    n = 4
+    for tot in totals:
+        th = tot / n
+        lam = _prbdm(row, beam, GAMMA4, [th])
+        row.check(f"finite, sorted, positive at n theta = {tot:.4g}", None, ok=_sane(lam))
+        P = np.full((1, n), th)
+        Q = P.copy()
+        Q[0, 0] += 0.7
+        rot = _prbdm(_Row(), beam, GAMMA4, Q, grad=False)
+        mir = _prbdm(_Row(), beam, GAMMA4, -P, grad=False)
+        row.check(f"theta_1 rigid rotation, mirror (n theta = {tot:.4g})",
+                  max(_rel(rot, lam), _rel(mir, lam)), 1e-12, key=tot == totals[-1])
+    from .commands.eval import parse_poses
+    _, warn_lim = parse_poses(f"{math.pi / 8:.15f}", n)
+    _, warn_out = parse_poses("0.5", n)
+    row.check("prbdm eval: silent at the limit, warns beyond (n theta > pi/2)", None,
+              ok=not warn_lim and any("pi/2" in w for w in warn_out))
+
+
+def _degenerate_2r():
+    """A uniform 2R model and pose where A = K^-1/2 M K^-1/2 is a multiple of the identity (the
+    two eigenvalues coincide): solve A_12 = 0 and A_11 = A_22 for (theta_2, gamma_1)."""
+    torch = _torch()
+    from scipy.optimize import fsolve
+    from . import model
+    bt = model.BeamTensors.from_beams(uniform_panel(0.2, 0.02))
+
+    def F(p):
+        gamma = torch.tensor([0.2, p[1], 0.8 - p[1]], dtype=torch.float64)
+        links = model.links_from_gamma(bt, gamma)
+        d = model.base_stiffness(bt, links).rsqrt()
+        a = (d[:, None] * model.mass_matrix(links, torch.tensor([0.3, p[0]],
+                                                               dtype=torch.float64))
+             * d[None, :]).numpy()
+        return [a[0, 1] / a[0, 0], (a[0, 0] - a[1, 1]) / a[0, 0]]
+
+    theta2, g1 = fsolve(F, [2.5, 0.36], xtol=1e-13)
+    return bt, float(theta2), float(g1)
+
+
+def case_degenerate(row: _Row, offset: float):
+    """Nearly equal eigenvalues: eigenvalue-only gradients (eigvalsh) carry no 1/(mu_i - mu_j)
+    factor, so they stay finite and match finite differences whatever the gap."""
+    torch = _torch()
+    from . import model
+    bt, theta2, g1 = _degenerate_2r()
+    P = torch.tensor([[0.3, theta2 + offset]], dtype=torch.float64)
+    x = torch.tensor([0.2, g1], dtype=torch.float64, requires_grad=True)
+    w = bt.w.clone().requires_grad_(True)
+
+    def lam_of(x, w):
+        b = model.BeamTensors(bt.x, w, bt.length, bt.thickness, bt.E, bt.rho)
+        return model.eigenvalues_unit_k(b, torch.cat([x, 1 - x.sum(-1, keepdim=True)]), P)[0]
+
+    lam = lam_of(x, w)
+    gap = float((lam[1] - lam[0]).detach() / lam[0].detach())
+    beam = uniform_panel(0.2, 0.02)
+    _prbdm(row, beam, [0.2, g1, 0.8 - g1], P.numpy(), grad=False)
+    row.check("eigenvalues finite, sorted, positive", None, ok=_sane(lam.detach().numpy()))
+    grads = [torch.autograd.grad(lam[i], (x, w), retain_graph=True) for i in range(2)]
+    ok = all(bool(torch.isfinite(g).all()) for gs in grads for g in gs)
+    row.grads(ok)
+    row.check("d lam_1, d lam_2 / d(gamma, widths) finite", None, ok=ok)
+    # the pair's sum is smooth through the crossing; each eigenvalue is smooth while gap > 0
+    v = torch.tensor([0.3, -0.7], dtype=torch.float64)
+    h = 1e-7
+    with torch.no_grad():
+        fd = (lam_of(x + h * v, w) - lam_of(x - h * v, w)) / (2 * h)
+    ad_sum = float((grads[0][0] + grads[1][0]) @ v)
+    row.check("d(lam_1 + lam_2): autograd vs central diff.", abs(ad_sum - float(fd.sum()))
+              / abs(ad_sum), 1e-6, key=True)
+    if gap > 1e-4:
+        ad0 = float(grads[0][0] @ v)
+        row.check("d lam_1: autograd vs central diff.", abs(ad0 - float(fd[0])) / abs(ad0), 1e-5)
+    row.note = f"relative gap (lam_2 - lam_1)/lam_1 = {gap:.2e}"
+
+
+def case_float32(row: _Row, n: int, beams: int):
+    """float32 against float64 on random beams and layouts: a symmetric eigensolver's error is
+    ~eps ||A|| = eps mu_max, so the relative error of lam_i = 1/mu_i is ~eps lam_i / lam_1:
+    mode 1 is good to a few eps32 whatever n, the highest mode loses cond(A) = lam_n/lam_1."""
+    torch = _torch()
+    rng = np.random.default_rng([7, n])
+    worst_ratio = err1 = errn = 0.0
+    sane = True
+    for i in range(beams):
+        beam = random_beam(7, i)
+        g = 0.025 + (1 - 0.025 * (n + 1)) * rng.dirichlet(np.ones(n + 1))
+        for poses in ("paper", "linear"):
+            l64 = _prbdm(row, beam, g, poses)
+            l32 = _prbdm(_Row(), beam, g, poses, dtype=torch.float32)
+            sane &= _sane(l32)
+            err = np.abs(l32 / l64 - 1)
+            ratio = l64 / l64[..., :1]
+            worst_ratio = max(worst_ratio, float((err / (EPS32 * ratio)).max()))
+            err1, errn = max(err1, float(err[..., 0].max())), max(errn, float(err[..., -1].max()))
+    trusted = EPS32 * row.cond["A"] < 0.1
+    row.extra.update(f32_err1=err1, f32_errn=errn, f32_ratio=worst_ratio, f32_sane=sane,
+                     f32_condA=row.cond["A"])
+    if trusted:
+        row.check("float32 finite, sorted, positive", None, ok=sane)
+    row.check("float32 mode-1 rel. error", err1, 1e-5, key=True)
+    row.check("float32 error / (eps32 lam_i/lam_1), all modes", worst_ratio, 50.0)
+    row.note = (f"float32 rel. error: mode 1 {err1:.1e}, mode n {errn:.1e}" +
+                ("" if trusted else f"; eps32 cond(A) = {EPS32 * row.cond['A']:.1f}: highest "
+                 f"eigenvalues {'still' if sane else 'NOT'} finite, sorted and positive"))
+
+
+def case_fit_bounds(row: _Row, corners, compare_best: bool):
+    """Fits started on the gamma bounds (a corner of the bounded simplex: every link but one at
+    0.025) must leave the bound and converge to a finite, feasible optimum."""
+    from .fit import fit_prbdm
+    from .model import GAMMA_MAX, GAMMA_MIN
+    from .truth.analytic import beam_omega_scale
+    beam = random_beam(0, 3)
+    n = 4
+    truth = _truth(row, beam) * beam_omega_scale(beam)
+    best = fit_prbdm(beam, truth, n).loss_percent if compare_best else None
+    ratios = []
+    for j in corners:
+        g0 = np.full(n + 1, GAMMA_MIN)
+        g0[j] = 1 - n * GAMMA_MIN
+        start = fit_prbdm(beam, truth, n, init_gamma=[g0], max_iter=1)
+        f = fit_prbdm(beam, truth, n, init_gamma=[g0])
+        again = fit_prbdm(beam, truth, n, init_gamma=[f.gamma])
+        g = f.gamma
+        row.check(f"corner {j}: finite, sum 1, within bounds", float(abs(g.sum() - 1)), 1e-12,
+                  ok=bool(np.all(np.isfinite(g)) and np.all(np.isfinite(f.k)) and np.all(f.k > 0)
+                          and abs(g.sum() - 1) < 1e-12 and g.min() >= GAMMA_MIN - 1e-12
+                          and g.max() <= GAMMA_MAX + 1e-12 and math.isfinite(f.loss_percent)))
+        row.check(f"corner {j}: left the start (max |d gamma|)", -float(np.abs(g - g0).max()),
+                  -1e-3)
+        row.check(f"corner {j}: loss / loss after 1 iteration", f.loss_percent / start.loss_percent,
+                  0.999)
+        row.check(f"corner {j}: converged (re-fit gains < 2 %)",
+                  1 - again.loss_percent / f.loss_percent, 0.02, key=j == corners[-1])
+        if best:
+            ratios.append(f.loss_percent / best)
+        row.grads(True)
+    row.note = ("loss / multistart best: " + ", ".join(f"{r:.2f}" for r in ratios)
+                if ratios else "")
+
+
+def case_network(row: _Row, beam: Beam, expect_ood: bool):
+    """The network on a shape: an OutOfDistributionWarning naming the feature when a feature lies
+    outside the training range; otherwise its truth-frequency prediction must be close."""
+    from . import surrogate
+    from .truth import bending_frequencies
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        pred = surrogate.predict([beam], joints=4)
+    ood = [str(w.message) for w in caught
+           if issubclass(w.category, surrogate.OutOfDistributionWarning)]
+    names = surrogate.feature_names(surrogate.FeatureSpec())
+    named = bool(ood) and any(nm in ood[0] for nm in names)
+    g = pred.gamma[0]
+    row.check("gamma on the bounded simplex, k > 0, omega finite", None,
+              ok=bool(abs(g.sum() - 1) < 1e-12 and g.min() >= 0.025 - 1e-12
+                      and np.all(pred.k > 0) and _sane(pred.omega[0])
+                      and np.all(np.isfinite(pred.omega_truth))))
+    truth = bending_frequencies(beam, "beam", 5).omega
+    err = _rel(pred.omega_truth[0][:4], truth[:4])
+    if expect_ood:
+        row.check("OutOfDistributionWarning naming the feature", None, ok=named)
+        row.check("truth-frequency error (extrapolation, reported)", err, None, ok=True,
+                  key=True)
+        row.extra["network_error"] = err
+    else:
+        row.check("no OutOfDistributionWarning", None, ok=not ood)
+        row.check("truth-frequency error, modes 1-4 (in range)", err, 0.02, key=True)
+    row.grads(True)
+    row.note = (ood[0][:110] + "...") if ood else "no warning"
+
+
+def case_refusals(row: _Row):
+    """Bad input is a BadInput naming the field, never a number."""
+    from . import model
+    from .fit import fit_prbdm
+    from .truth import bending_frequencies
+    torch = _torch()
+    beam = uniform_panel()
+    g4 = torch.tensor(GAMMA4, dtype=torch.float64)
+    tries = [
+        ("truth: width ratio 1e7", "half_width", lambda: bending_frequencies(
+            Beam(x=[0, 1], half_width=[0.1, 1e-8], thickness=0.02), "beam")),
+        ("PRBDM: width ratio 1e13", "half_width", lambda: model.eigenvalues(
+            Beam(x=[0, 1], half_width=[0.1, 1e-14], thickness=0.02), g4)),
+        ("fit: joints = 40 (bounds infeasible)", "joints",
+         lambda: fit_prbdm(beam, [1.0, 2.0], 40)),
+        ("PRBDM: NaN pose", "poses", lambda: model.eigenvalues(beam, g4, poses=[float("nan")])),
+        ("PRBDM: one link", "gamma", lambda: model.eigenvalues(beam, torch.tensor([1.0]))),
+        ("beam: zero width", "half_width", lambda: Beam(x=[0, 1], half_width=[0.1, 0.0],
+                                                        thickness=0.02)),
+        ("beam: thickness 0", "thickness", lambda: uniform_panel(thickness=0.0)),
+        ("material: E = 0", "material.E", lambda: Material(E=0.0)),
+        ("fit: truth not ascending", "omega_truth",
+         lambda: fit_prbdm(beam, [3.0, 2.0, 1.0, 4.0], 3)),
+    ]
+    for name, fld, fn in tries:
+        ok, msg = _raises(fn, fld)
+        row.check(f"{name} -> BadInput naming {fld}", None, ok=ok)
+    row.conds()
+
+
+# ============================================================================ the suite
+def _cases() -> list[Case]:
+    c = []
+    ref_u = uniform_panel()
+    for t in (0.001, 0.05):
+        c.append(Case(f"thickness {t * 1e3:g} mm", "t (uniform steel panel, L = 1 m, w = 0.18 m)",
+                      case_scaling, dict(beam=uniform_panel(thickness=t), ref=ref_u,
+                                         analytic=True)))
+    for w in (0.002, 0.5):
+        c.append(Case(f"half-width {w * 1e3:g} mm", "w (uniform steel panel, t = 20 mm)",
+                      case_scaling, dict(beam=uniform_panel(half_width=w), ref=ref_u,
+                                         analytic=True), quick=w == 0.002))
+    c.append(Case("combined: 2 mm wide, 1 mm thick elastomer, L = 3 m", "everything at once",
+                  case_scaling, dict(beam=uniform_panel(0.002, 0.001, ELASTOMER, 3.0), ref=ref_u,
+                                     analytic=True), quick=False))
+    ref_t = tapered_panel()
+    for name, mat in (("steel", STEEL), ("aluminium", ALUMINIUM), ("titanium", TITANIUM),
+                      ("elastomer 5 MPa", ELASTOMER)):
+        c.append(Case(f"material: {name}", f"E = {mat.E:.3g} Pa, rho = {mat.rho:g} (tapered panel)",
+                      case_scaling, dict(beam=tapered_panel(mat), ref=ref_t, analytic=False),
+                      quick=name in ("steel", "elastomer 5 MPa")))
+    c.append(Case("width 100:1 linear taper", "w 0.5 m -> 5 mm", case_width,
+                  dict(beam=Beam(x=[0, 1], half_width=[0.5, 0.005], thickness=0.02),
+                       order=True, shoot_modes=2)))
+    c.append(Case("width 100:1 step over 1 % of span", "w 0.2 m -> 2 mm at x = 0.5-0.51 L",
+                  case_width, dict(beam=Beam(x=[0, 0.5, 0.51, 1], half_width=[0.2, 0.2, 2e-3, 2e-3],
+                                             thickness=0.02),
+                                   order=False, shoot_modes=2)))
+    c.append(Case("needle tip (1e5:1)", "w 0.1 m -> 1 um at the tip (plate: refused)",
+                  case_width, dict(beam=Beam(x=[0, 1], half_width=[0.1, 1e-6], thickness=0.02),
+                                   order=True, shoot_modes=2, plate="refused")))
+    c.append(Case("width 100:1 taper, plate truth", "w 0.5 m -> 5 mm; plate FEM too",
+                  case_width, dict(beam=Beam(x=[0, 1], half_width=[0.5, 0.005], thickness=0.02),
+                                   order=True, shoot_modes=3, plate="finite"), quick=False))
+    c.append(Case("needle tip (1e4:1), plate truth", "w 0.1 m -> 10 um; plate FEM too",
+                  case_width, dict(beam=Beam(x=[0, 1], half_width=[0.1, 1e-5], thickness=0.02),
+                                   order=True, shoot_modes=3, plate="slender"), quick=False))
+    c.append(Case("needle tip 1e11:1", "beyond the truth's 1e6", case_needle_beyond,
+                  dict(tip=1e-12)))
+    c.append(Case("needle tip 1e15:1", "beyond the PRBDM's 1e12", case_needle_beyond,
+                  dict(tip=1e-16)))
+    for n in (1, 2, 3, 4, 5, 8, 10, 15, 20, 30, 39):
+        c.append(Case(f"n = {n}", "joints (uniform panel; random gamma, paper poses)",
+                      case_joints, dict(n=n), quick=n in (1, 4, 20)))
+    c.append(Case("poses 2R: 0, pi/4 (limit), 1, 3 rad", "theta_2 (theta_1 = theta_2)",
+                  case_poses_2r, dict(thetas=[0.0, math.pi / 4, 1.0, 3.0])))
+    c.append(Case("poses 4R: n theta = pi/2 (limit), pi, 2 pi", "pose (tapered panel)",
+                  case_poses_4r, dict(totals=[math.pi / 2, math.pi, 2 * math.pi])))
+    for off in (1e-2, 1e-5, 1e-8, 0.0):
+        c.append(Case(f"near-equal eigenvalues, offset {off:g}",
+                      "2R pose offset from an exact crossing", case_degenerate,
+                      dict(offset=off), quick=off in (1e-5, 0.0)))
+    for n in (1, 2, 4, 8, 12, 20, 39):
+        c.append(Case(f"float32, n = {n}", "dtype (8 random beams, paper + linear poses)",
+                      case_float32, dict(n=n, beams=8),
+                      quick=n in (4, 20)))
+    c.append(Case("fit from gamma corners 0, 4", "init_gamma on the bounds (4R, random beam)",
+                  case_fit_bounds, dict(corners=[0, 4], compare_best=False)))
+    c.append(Case("fit from all gamma corners", "init_gamma on the bounds (4R, random beam)",
+                  case_fit_bounds, dict(corners=[0, 1, 2, 3, 4], compare_best=True), quick=False))
+    c.append(Case("network: in-range beam", "random_beam(0, 5000), unseen", case_network,
+                  dict(beam=random_beam(0, 5000), expect_ood=False)))
+    c.append(Case("network: needle tip 1e5:1", "shape", case_network,
+                  dict(beam=Beam(x=[0, 1], half_width=[0.1, 1e-6], thickness=0.02),
+                       expect_ood=False), quick=False))
+    c.append(Case("network: 100:1 step", "shape outside training", case_network,
+                  dict(beam=Beam(x=[0, 0.5, 0.51, 1], half_width=[0.2, 0.2, 2e-3, 2e-3],
+                                 thickness=0.02), expect_ood=True)))
+    c.append(Case("network: 1e4:1 step", "shape outside training", case_network,
+                  dict(beam=Beam(x=[0, 0.5, 0.51, 1], half_width=[0.2, 0.2, 2e-5, 2e-5],
+                                 thickness=0.02), expect_ood=True), quick=False))
+    c.append(Case("bad input", "9 invalid inputs", case_refusals, {}))
+    return c
+
+
+CASES = _cases()
+
+
+def run_case(case: Case) -> dict:
+    """One row: the case's checks, condition numbers, gradient finiteness and time. An
+    unexpected exception is a failed row carrying its message (the suite never crashes)."""
+    row = _Row()
+    t0 = time.perf_counter()
+    try:
+        case.fn(row, **case.kwargs)
+    except Exception as exc:                                         # noqa: BLE001
+        tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        row.check("ran without an unexpected exception", None, ok=False)
+        row.note = tb[:200]
+    elapsed = time.perf_counter() - t0
+    failed = [c["check"] for c in row.checks if not c["passed"]]
+    # the accuracy shown: the case's key check, else the one nearest (or furthest past) its
+    # tolerance
+    graded = [c for c in row.checks if c["tol"] is not None and c["value"] is not None
+              and c["tol"] > 0]
+    bad = [c for c in graded if not c["passed"]]
+    worst = (max(bad, key=lambda c: c["value"] / c["tol"]) if bad else row.key
+             or max(graded, key=lambda c: c["value"] / c["tol"], default=None))
+    return {
+        "name": case.name, "varied": case.varied,
+        "passed": not failed, "n_checks": len(row.checks), "failed": failed,
+        "checks": row.checks,
+        "accuracy": None if worst is None else worst["value"],
+        "tolerance": None if worst is None else worst["tol"],
+        "accuracy_check": None if worst is None else worst["check"],
+        "cond_M": row.cond.get("M"), "cond_K": row.cond.get("K"), "cond_A": row.cond.get("A"),
+        "cond_fem_raw": row.cond.get("fem_raw"), "cond_fem": row.cond.get("fem"),
+        "grad_finite": row.grad_finite, "time_s": elapsed, "note": row.note,
+        "extra": row.extra,
+    }
+
+
+def run_suite(quick: bool = False) -> list[dict]:
+    """Run every case (``quick``: the subset the tests run, about a minute on 2 busy cores) and
+    return one dict per case: name, varied, passed, n_checks, failed (names), checks (each
+    check's value, tolerance, verdict), accuracy / tolerance / accuracy_check (the check nearest
+    its tolerance), cond_M, cond_K, cond_A, cond_fem_raw, cond_fem (None where not computed),
+    grad_finite, time_s, note."""
+    return [run_case(c) for c in CASES if c.quick or not quick]
+
+
+# ============================================================================ report
+def _g(v, fmt="{:.1e}"):
+    if v is None:
+        return "–"
+    if isinstance(v, bool):
+        return "yes" if v else "**NO**"
+    return fmt.format(v)
+
+
+TRICKS = """\
+What keeps the conditioning in check (each verified in the code named):
+
+- **Nondimensional physics** (`prbdm/model.py`, `prbdm/truth/beam.py`): lengths / L, masses /
+  (rho t L^2), eigenvalues / (E t^2 / (rho L^4)); the beam FEM solves `(beta w'')'' = lambda beta w`
+  with `beta = b / b_max`. A 5 MPa elastomer, 1 mm or 50 mm thick, 2 mm or 0.5 m wide, gives the
+  same matrices as the steel reference (rows above: identical to 1e-10 or better), so
+  material and size never enter a condition number.
+- **`K^-1/2 M K^-1/2` symmetric standard form** (`model.eigenvalues_unit_k`): K is diagonal and
+  positive, so no Cholesky of M and no inverse; the fitted low modes are the *largest*
+  eigenvalues `mu = 1/lambda` of `A`, which `eigvalsh` returns with absolute error ~eps·mu_max,
+  i.e. relative error ~eps·lambda_i/lambda_1: mode 1 to round-off whatever cond(A).
+- **Eigenvalue-only gradients** (`torch.linalg.eigvalsh`): the gradient `u^T dA u` has no
+  `1/(mu_i - mu_j)` factor, so no guard is needed and none is applied: the gradients stay finite
+  at relative gaps from 1e-2 down to an exact crossing (1e-15); the pair's sum matches finite
+  differences at every gap, each eigenvalue alone where it is smooth (rows "near-equal
+  eigenvalues"). Eigenvectors are never differentiated.
+- **M is SPD at every pose** (SPEC §3): the rotary term `Σ_{j>=max(k,l)} J_j` is itself SPD, so
+  poses at and beyond n·theta = pi/2 stay solvable (cond(M) above; the library accepts them, `prbdm
+  eval` warns); the paper's pose sets stay inside the limit for every n of the suite.
+- **Span integrals about the span midpoint, `log1p` log-mean with a series near equal widths**
+  (`prbdm/sections.py`): short links far from the root and near-uniform links keep their digits;
+  `∫ dx / w` of a 1e11:1 needle's tip is within 2.4e-7 of its closed form (the rounding of the
+  tip width itself, ~eps·ratio/log(ratio), sets that floor).
+- **Width-ratio limits** (`prbdm/truth/__init__.py`: 1e6 for the truth; `prbdm/geometry.py`
+  `MAX_PRBDM_WIDTH_RATIO`: 1e12 for the PRBDM and the network): beyond them a `BadInput` naming
+  `half_width`, rather than a failed eigen-solve.
+- **gamma bounds by construction** (`prbdm/fit.py` `gamma_from_z`, `prbdm/surrogate.py`
+  softmax): every iterate and every prediction is on the bounded simplex; `init_gamma` starts on a
+  bound are moved to `|z_j| >= 0.02` (`INIT_Z_FLOOR`), because at `z_j = 0` the gradient in that
+  direction vanishes and the link would stay frozen on its bound.
+- **Truth FEM** (`prbdm/truth/beam.py`, `_linalg.py`, `_mesh.py`): element-local Hermite basis,
+  width grading with an element-size floor `1e-4 L (w/w_max)^(1/3)`, symmetric diagonal scaling
+  `D K D` (cond columns "FEM K raw" → "FEM DKD"), shift-invert Lanczos with one step of iterative
+  refinement of the LU, eigenvalues recomputed as Rayleigh quotients from the fields.
+"""
+
+
+def format_markdown(rows: list[dict]) -> str:
+    """A Markdown section: one table row per case, the failures spelled out, notes, the float32
+    table built from the float32 rows, and the list of conditioning tricks."""
+    out = ["## Stability on stiff and extreme cases", ""]
+    npass = sum(r["passed"] for r in rows)
+    out += [f"{npass} of {len(rows)} cases pass ({sum(r['n_checks'] for r in rows)} checks; "
+            "`python benchmarks/stability.py --details` lists every one). *accuracy*: the "
+            "case's key check (a failing check if any) against its tolerance. Condition numbers "
+            "are the largest over the case's poses and models: `M` and `K = diag(s)` "
+            "nondimensional, `A = K^-1/2 M K^-1/2` the symmetric problem actually solved, *FEM*: "
+            "the beam truth's stiffness as assembled / after its diagonal scaling.", "",
+            "| case | varied | checks | accuracy | tol. | accuracy of | cond M | cond K | cond A "
+            "| FEM K / DKD | grad finite | s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        checks = f"{r['n_checks'] - len(r['failed'])}/{r['n_checks']}"
+        if r["failed"]:
+            checks = f"**{checks}**"
+        fem = ("–" if r["cond_fem"] is None
+               else f"{r['cond_fem_raw']:.0e} / {r['cond_fem']:.0e}")
+        out.append(f"| {r['name']} | {r['varied']} | {checks} | {_g(r['accuracy'])} | "
+                   f"{_g(r['tolerance'], '{:.0e}')} | {r['accuracy_check'] or '–'} | "
+                   f"{_g(r['cond_M'])} | {_g(r['cond_K'])} | {_g(r['cond_A'])} | {fem} | "
+                   f"{_g(r['grad_finite'])} | {r['time_s']:.2f} |")
+    out.append("")
+    failed = [r for r in rows if not r["passed"]]
+    if failed:
+        out += ["**Failures:**", ""]
+        out += [f"- {r['name']}: {'; '.join(r['failed'])}" + (f" ({r['note']})" if r["note"] else "")
+                for r in failed]
+        out.append("")
+    notes = [r for r in rows if r["note"] and r["passed"]]
+    if notes:
+        out += ["Notes:", ""] + [f"- {r['name']}: {r['note']}" for r in notes] + [""]
+    f32 = [r for r in rows if "f32_err1" in r.get("extra", {})]
+    if f32:
+        out += ["float32 against float64 (8 random beams, a random gamma each, paper and linear "
+                "poses; relative eigenvalue errors, worst case):", "",
+                "| n | cond A | eps32 · cond A | mode 1 | highest mode | max err / (eps32 λ_i/λ_1) "
+                "| finite, sorted, positive |", "|---|---|---|---|---|---|---|"]
+        for r in f32:
+            e = r["extra"]
+            out.append(f"| {r['name'].split('= ')[-1]} | {e['f32_condA']:.1e} | "
+                       f"{EPS32 * e['f32_condA']:.2g} | {e['f32_err1']:.1e} | "
+                       f"{e['f32_errn']:.1e} | {e['f32_ratio']:.1f} | "
+                       f"{'yes' if e['f32_sane'] else '**no**'} |")
+        out.append("")
+    out.append(TRICKS)
+    return "\n".join(out)
