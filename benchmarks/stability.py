@@ -42,7 +42,7 @@ def main(argv=None) -> int:
             for c in r["checks"]:
                 v = "–" if c["value"] is None else f"{c['value']:.3g}"
                 t = "–" if c["tol"] is None else f"{c['tol']:.0e}"
-                print(f"| {r['name']} | {c['check']} | {v} | {t} | "
+                print(f"| {r['name']} | {stability._cell(c['check'])} | {v} | {t} | "
                       f"{'yes' if c['passed'] else '**NO**'} |")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"\n({len(rows)} cases in {wall:.1f} s; Python {platform.python_version()}, "
