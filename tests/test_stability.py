@@ -104,7 +104,7 @@ def test_prbdm_refuses_extreme_width_ratio():
         model.eigenvalues(beam, model.uniform_gamma(4))
     with pytest.raises(BadInput, match="half_width"):
         surrogate.predict([beam], joints=4)
-    ok = Beam(x=[0, 1], half_width=[0.1, 0.1 / MAX_PRBDM_WIDTH_RATIO], thickness=0.02)
+    ok = Beam(x=[0, 1], half_width=[0.1, 0.2 / MAX_PRBDM_WIDTH_RATIO], thickness=0.02)
     lam = model.eigenvalues(ok, model.uniform_gamma(4)).numpy()
     assert np.isfinite(lam).all() and (lam > 0).all()
 
