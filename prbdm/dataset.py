@@ -19,6 +19,11 @@ How it works, in the order of this file:
 2. **Labelling.** :func:`label_beam` ``(index, spec) -> dict`` is a pure, picklable, module-level
    function: rebuild beam ``index``, compute its truth, fit the PRBDM. Any exception becomes a
    record with ``status = "error"`` and the message, so one bad beam never stops a run.
+   :func:`label_beams` labels a chunk of beams with one batched fit (``fit_many``, each beam with
+   its own seed), which costs less CPU per beam; if the batched fit fails it fits the chunk's
+   beams one at a time, so one bad beam is still one error record. A task is a chunk of
+   ``spec["fit_batch"]`` consecutive indices with fixed boundaries (chunk c holds
+   ``[c B, (c + 1) B)``, less what is already stored).
 3. **Storage.** Records are buffered by the parent process and written as a part file, atomically
    (temporary file, then rename), every ``part_size`` records or ``flush_s`` seconds. A kill -9 at
    any moment loses at most the buffered records, never leaves a half-written part.
@@ -51,7 +56,7 @@ from . import __version__
 from .errors import BadInput
 from .geometry import RANDOM_DEFAULTS, Material, random_beam
 
-__all__ = ["make_spec", "label_beam", "generate", "info", "read_table", "read_manifest",
+__all__ = ["make_spec", "label_beam", "label_beams", "generate", "info", "read_table", "read_manifest",
            "MANIFEST", "FORMAT_VERSION", "COLUMNS"]
 
 MANIFEST = "_manifest.json"
@@ -59,6 +64,11 @@ FORMAT = "prbdm-dataset"
 FORMAT_VERSION = 1
 TRUTH_MODELS = ("beam", "plate")
 LAWS = ("beam", "paper")
+#: beams per batched fit (one task) for a new data set when --fit-batch is not given: measured
+#: best on 2 cores (benchmarks/bench_dataset.py); a set without ``fit_batch`` in its spec (made
+#: before chunking) is labelled one beam per task, as it was
+DEFAULT_FIT_BATCH = 8
+MAX_FIT_BATCH = 256
 #: default number of records per part file, and the longest a record waits in memory [s]
 PART_SIZE = 256
 FLUSH_S = 60.0
@@ -72,18 +82,21 @@ DEFAULT_STARTS = 64
 #: spec field -> the command-line flag that sets it (for error messages)
 FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "--truth",
          "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
-         "beam.p": "--stations", "beam.min_half_width": "--min-half-width"}
+         "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
+         "fit_batch": "--fit-batch"}
 
 
 def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: str = "beam",
               poses="paper", starts: int | None = None, seed: int = 0, p: int | None = None,
               min_half_width: float | None = None, truth_modes: int | None = None,
-              material: Material | None = None) -> dict:
+              material: Material | None = None, fit_batch: int | None = None) -> dict:
     """The JSON-able description of a data set: everything that decides a record.
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
     with ``truth_modes = max(modes, joints) + 1`` modes (all stored). ``poses`` is ``"paper"``,
     ``"linear"`` or a list of joint angles [rad]. ``starts=None`` means :data:`DEFAULT_STARTS`.
+    ``fit_batch``: beams per batched fit; None (the key is then absent) means the folder's value
+    for an existing set (1 if it has none) and :data:`DEFAULT_FIT_BATCH` for a new one.
     """
     def integer(name, v, lo):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
@@ -118,8 +131,18 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
                            f"got {min_half_width!r}")
         gen["min_half_width"] = float(min_half_width)
     gen["material"] = (material or Material()).to_dict()
-    return {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
+    spec = {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
             "joints": joints, "modes": modes, "law": law, "poses": poses, "starts": starts}
+    if fit_batch is not None:
+        spec["fit_batch"] = _fit_batch(fit_batch)
+    return spec
+
+
+def _fit_batch(value) -> int:
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+            or not 1 <= value <= MAX_FIT_BATCH):
+        raise BadInput(f"--fit-batch: must be an integer in [1, {MAX_FIT_BATCH}], got {value!r}")
+    return int(value)
 
 
 def _flatten(d: dict, prefix: str = "") -> dict:
@@ -203,6 +226,47 @@ def _floats(values) -> list[float]:
     return [float(v) for v in np.asarray(values, dtype=np.float64).ravel()]
 
 
+def _new_record(index: int) -> dict:
+    return {"index": int(index), "status": "error", "error": None,
+            "worker": f"{socket.gethostname()}:{os.getpid()}"}
+
+
+def _beam_and_truth(rec: dict, spec: dict, stage: list):
+    """The stages before the fit, into ``rec``: returns (beam, omega). ``stage[0]`` names the
+    stage running (beam, truth, then fit once both are done), for the error of a failure."""
+    stage[0] = "beam"
+    beam = beam_for(spec, rec["index"])
+    rec.update(x=beam.x.tolist(), half_width=beam.half_width.tolist(),
+               thickness=beam.thickness, length=beam.length, mass=beam.mass)
+    stage[0] = "truth"
+    from .truth import bending_frequencies
+
+    tr = bending_frequencies(beam, model=spec["truth"], modes=spec["truth_modes"])
+    omega = np.asarray(tr.omega, dtype=np.float64)
+    rec.update(omega_truth=_floats(omega), truth_time_s=float(tr.time_s))
+    if omega.size < spec["modes"] or not np.all(np.isfinite(omega)):
+        raise ValueError(f"{omega.size} finite modes, the fit maps {spec['modes']}")
+    stage[0] = "fit"
+    return beam, omega
+
+
+def _fit_fields(rec: dict, fr, seed: int) -> None:
+    """Copy a FitResult into the record; a non-finite loss raises (the record is an error)."""
+    freq_error = np.abs(np.asarray(fr.freq_error, dtype=np.float64))
+    rec.update(gamma=_floats(fr.gamma), k=_floats(fr.k), loss_percent=float(fr.loss_percent),
+               gamma_spread=float(fr.gamma_spread), n_near_best=int(fr.n_near_best),
+               freq_error_max=_floats(freq_error.reshape(-1, freq_error.shape[-1]).max(axis=0)),
+               fit_time_s=float(fr.time_s), fit_seed=seed)
+    if not math.isfinite(rec["loss_percent"]):
+        raise ValueError(f"non-finite loss {rec['loss_percent']!r}")
+    rec["status"] = "ok"
+
+
+def _fit_kwargs(spec: dict) -> dict:
+    return dict(joints=spec["joints"], modes=spec["modes"], law=spec["law"],
+                poses=spec["poses"], starts=spec["starts"])
+
+
 def label_beam(index: int, spec: dict) -> dict:
     """Label beam ``index``: geometry, truth frequencies, fitted PRBDM, timings, status.
 
@@ -210,41 +274,96 @@ def label_beam(index: int, spec: dict) -> dict:
     ``"stage: ExceptionType: message"`` (stage is beam, truth or fit). Runs torch on one thread.
     """
     t0, c0 = time.perf_counter(), time.thread_time()
-    rec = {"index": int(index), "status": "error", "error": None,
-           "worker": f"{socket.gethostname()}:{os.getpid()}"}
-    stage = "beam"
+    rec, stage = _new_record(index), ["beam"]
     try:
-        beam = beam_for(spec, int(index))
-        rec.update(x=beam.x.tolist(), half_width=beam.half_width.tolist(),
-                   thickness=beam.thickness, length=beam.length, mass=beam.mass)
-        stage = "truth"
-        from .truth import bending_frequencies
-
-        tr = bending_frequencies(beam, model=spec["truth"], modes=spec["truth_modes"])
-        omega = np.asarray(tr.omega, dtype=np.float64)
-        rec.update(omega_truth=_floats(omega), truth_time_s=float(tr.time_s))
-        if omega.size < spec["modes"] or not np.all(np.isfinite(omega)):
-            raise ValueError(f"{omega.size} finite modes, the fit maps {spec['modes']}")
-        stage = "fit"
+        beam, omega = _beam_and_truth(rec, spec, stage)
         _torch_one_thread()
         from .fit import fit_prbdm
 
         seed = _fit_seed(spec, int(index))
-        fr = fit_prbdm(beam, omega, joints=spec["joints"], modes=spec["modes"], law=spec["law"],
-                       poses=spec["poses"], starts=spec["starts"], seed=seed)
-        freq_error = np.abs(np.asarray(fr.freq_error, dtype=np.float64))
-        rec.update(gamma=_floats(fr.gamma), k=_floats(fr.k), loss_percent=float(fr.loss_percent),
-                   gamma_spread=float(fr.gamma_spread), n_near_best=int(fr.n_near_best),
-                   freq_error_max=_floats(freq_error.reshape(-1, freq_error.shape[-1]).max(axis=0)),
-                   fit_time_s=float(fr.time_s), fit_seed=seed)
-        if not math.isfinite(rec["loss_percent"]):
-            raise ValueError(f"non-finite loss {rec['loss_percent']!r}")
-        rec["status"] = "ok"
+        fr = fit_prbdm(beam, omega, seed=seed, **_fit_kwargs(spec))
+        _fit_fields(rec, fr, seed)
     except Exception as exc:  # noqa: BLE001 - failure isolation: record it, go on
-        rec["error"] = _error_text(stage, exc)
+        rec["error"] = _error_text(stage[0], exc)
     rec["time_s"] = time.perf_counter() - t0
     rec["cpu_s"] = time.thread_time() - c0
     return rec
+
+
+def label_beams(indices, spec: dict) -> list[dict]:
+    """Label several beams with one batched fit: the records of :func:`label_beam`, in order.
+
+    Geometry and truth are computed beam by beam; the beams whose truth succeeded are fitted
+    together by one :func:`prbdm.fit.fit_many` call, each with its own seed ``_fit_seed(spec,
+    index)`` (so its start points are the ones :func:`label_beam` uses). ``fit_time_s`` and the
+    fit's share of ``time_s`` and ``cpu_s`` are the batch's time divided equally among its beams.
+    If the batched fit raises, each of its beams is fitted alone, so a beam that breaks the fit is
+    one error record. One index: exactly :func:`label_beam`.
+    """
+    indices = [int(i) for i in indices]
+    if len(indices) == 1:
+        return [label_beam(indices[0], spec)]
+    records, ready = [], []          # ready: (record, beam, omega) of beams to fit
+    for i in indices:
+        t0, c0 = time.perf_counter(), time.thread_time()
+        rec, stage = _new_record(i), ["beam"]
+        try:
+            beam, omega = _beam_and_truth(rec, spec, stage)
+            ready.append((rec, beam, omega))
+        except Exception as exc:  # noqa: BLE001 - failure isolation
+            rec["error"] = _error_text(stage[0], exc)
+        rec["time_s"] = time.perf_counter() - t0
+        rec["cpu_s"] = time.thread_time() - c0
+        records.append(rec)
+    if not ready:
+        return records
+    _torch_one_thread()
+    from .fit import fit_many, fit_prbdm
+
+    seeds = [_fit_seed(spec, rec["index"]) for rec, _, _ in ready]
+    t0, c0 = time.perf_counter(), time.thread_time()
+    try:
+        r = spec["modes"]
+        omega = np.stack([o[:r] for _, _, o in ready])
+        results = fit_many([b for _, b, _ in ready], omega, seed=seeds, **_fit_kwargs(spec))
+    except Exception:  # noqa: BLE001 - fall back to one fit per beam, below
+        results = None
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
+    for (rec, beam, omega), seed, j in zip(ready, seeds, range(len(ready))):
+        rec["time_s"] += wall / len(ready)
+        rec["cpu_s"] += cpu / len(ready)
+        t1, c1 = time.perf_counter(), time.thread_time()
+        try:
+            fr = (results[j] if results is not None else
+                  fit_prbdm(beam, omega, seed=seed, **_fit_kwargs(spec)))
+            _fit_fields(rec, fr, seed)
+        except Exception as exc:  # noqa: BLE001 - failure isolation
+            rec["error"] = _error_text("fit", exc)
+        rec["time_s"] += time.perf_counter() - t1
+        rec["cpu_s"] += time.thread_time() - c1
+    return records
+
+
+def label_chunk(indices, spec: dict, labeller=None) -> list[dict]:
+    """One task: the records of ``indices``. With the default labeller (:func:`label_beam`), one
+    batched fit (:func:`label_beams`); a custom ``(index, spec) -> record`` labeller is called
+    once per index."""
+    if labeller is None or labeller is label_beam:
+        return label_beams(indices, spec)
+    return [labeller(int(i), spec) for i in indices]
+
+
+def chunks(indices, size: int) -> list[list[int]]:
+    """Group sorted ``indices`` into tasks with fixed boundaries: chunk c holds the given indices
+    in ``[c size, (c + 1) size)``, so a resumed run fits a partly written chunk's missing beams
+    together, and never mixes them with another chunk's."""
+    out: list[list[int]] = []
+    for i in indices:
+        if out and out[-1][0] // size == i // size:
+            out[-1].append(int(i))
+        else:
+            out.append([int(i)])
+    return out
 
 
 def _error_text(stage: str, exc: BaseException) -> str:
@@ -255,6 +374,10 @@ def _error_text(stage: str, exc: BaseException) -> str:
 def _worker_failure(index: int, exc: BaseException) -> dict:
     """The record of a task that died outside label_beam (a lost worker, an unpicklable result)."""
     return {"index": int(index), "status": "error", "error": _error_text("worker", exc)}
+
+
+def _chunk_failure(chunk, exc: BaseException) -> list[dict]:
+    return [_worker_failure(i, exc) for i in chunk]
 
 
 # ====================================================================== 3. storage
@@ -412,17 +535,26 @@ def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def _open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> dict:
-    """Create the manifest of a new set, or check that an existing one has the same spec."""
+def _open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> tuple[dict, dict]:
+    """Create the manifest of a new set, or check that an existing one has the same spec.
+
+    Returns (manifest, the spec of this run). ``fit_batch`` absent from ``spec`` means the set's
+    value, absent from a set's spec (made before chunking) means 1; an existing manifest's spec
+    is never rewritten."""
     if (out / MANIFEST).exists():
         manifest = read_manifest(out)
-        field = spec_difference(manifest["spec"], spec)
+        stored = dict(manifest["spec"])
+        stored.setdefault("fit_batch", 1)
+        spec = {**spec, "fit_batch": spec.get("fit_batch", stored["fit_batch"])}
+        field = spec_difference(stored, spec)
         if field is not None:
-            old, new = _flatten(manifest["spec"]).get(field), _flatten(spec).get(field)
+            old, new = _flatten(stored).get(field), _flatten(spec).get(field)
+            hint = (" (leave --fit-batch out to use the set's)" if field == "fit_batch" else "")
             raise BadInput(f"{FLAGS.get(field, field)}: {out} holds a data set made with "
                            f"{field} = {json.dumps(old)}, this run asks for {json.dumps(new)}; "
-                           f"use the same options, or another --out")
-        return manifest
+                           f"use the same options{hint}, or another --out")
+        return manifest, spec
+    spec = {**spec, "fit_batch": spec.get("fit_batch", DEFAULT_FIT_BATCH)}
     others = [p.name for p in out.iterdir() if not p.name.startswith(".")]
     if others:
         raise BadInput(f"--out: {out} is not empty and not a prbdm data set (no {MANIFEST}); "
@@ -432,7 +564,7 @@ def _open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> dict
                 "columns": {k: {"type": t, "meaning": m} for k, (t, m) in COLUMNS.items()},
                 "runs": []}
     _write_manifest(out, manifest)
-    return manifest
+    return manifest, spec
 
 
 def _remove_temporaries(out: Path) -> None:
@@ -489,14 +621,15 @@ def _worker_ready(warm: bool = False) -> dict:
     return {"pid": os.getpid(), "host": socket.gethostname(), "prbdm": __version__}
 
 
-def _run_inline(indices, spec, labeller, workers, scheduler):
+def _run_inline(tasks, spec, labeller, workers, scheduler):
     yield {"workers": 1, "where": "in-process"}
-    for i in indices:
-        yield labeller(i, spec)
+    for chunk in tasks:
+        yield from label_chunk(chunk, spec, labeller)
 
 
-def _run_pool(indices, spec, labeller, workers, scheduler):
-    """A local pool of ``workers`` spawned processes; at most 2 tasks per worker in flight."""
+def _run_pool(tasks, spec, labeller, workers, scheduler):
+    """A local pool of ``workers`` spawned processes; at most 2 tasks (chunks) per worker in
+    flight."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -512,24 +645,25 @@ def _run_pool(indices, spec, labeller, workers, scheduler):
             pool.shutdown(wait=False, cancel_futures=True)
             raise
     yield {"workers": workers, "where": "process pool"}
-    todo, pending = iter(indices), {}
+    todo, pending = iter(tasks), {}
     try:
         while True:
-            while len(pending) < 2 * workers and (i := next(todo, None)) is not None:
-                pending[pool.submit(labeller, i, spec)] = i
+            while len(pending) < 2 * workers and (c := next(todo, None)) is not None:
+                pending[pool.submit(label_chunk, c, spec, labeller)] = c
             if not pending:
                 break
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for f in sorted(done, key=pending.get):
-                i = pending.pop(f)
+                c = pending.pop(f)
                 try:
-                    yield f.result()
+                    records = f.result()
                 except BrokenProcessPool:
                     raise RuntimeError("a worker process died (out of memory? killed?); the "
                                        "records written so far are kept: run the same command "
                                        "again to go on") from None
                 except Exception as exc:  # noqa: BLE001
-                    yield _worker_failure(i, exc)
+                    records = _chunk_failure(c, exc)
+                yield from records
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 
@@ -555,12 +689,12 @@ def _dask_client(workers: int, scheduler):
     return client, []
 
 
-def _run_dask(indices, spec, labeller, workers, scheduler):
-    """The same tasks on a Dask cluster; 2 tasks per worker thread in flight."""
+def _run_dask(tasks, spec, labeller, workers, scheduler):
+    """The same tasks (chunks) on a Dask cluster; 2 tasks per worker thread in flight."""
     from dask.distributed import as_completed
 
     client, owned = _dask_client(workers, scheduler)
-    pending = {}  # future key -> (index, future)
+    pending = {}  # future key -> (chunk, future)
     try:
         try:
             client.wait_for_workers(1, timeout=120)
@@ -571,27 +705,28 @@ def _run_dask(indices, spec, labeller, workers, scheduler):
         threads = lambda: max(1, sum(client.nthreads().values()))  # noqa: E731
         yield {"workers": threads(), "where": f"dask {client.scheduler_info()['address']}"}
         run = uuid.uuid4().hex[:8]
-        todo, window = iter(indices), 2 * threads()
+        todo, window = iter(tasks), 2 * threads()
         flow = as_completed()
 
         def top_up():
-            while len(pending) < window and (i := next(todo, None)) is not None:
-                f = client.submit(labeller, i, spec, pure=False, key=f"prbdm-label-{run}-{i}")
-                pending[f.key] = (i, f)
+            while len(pending) < window and (c := next(todo, None)) is not None:
+                f = client.submit(label_chunk, c, spec, labeller, pure=False,
+                                  key=f"prbdm-label-{run}-{c[0]}")
+                pending[f.key] = (c, f)
                 flow.add(f)
 
         top_up()
         seen = 0
         for f in flow:
-            i, _ = pending.pop(f.key)
+            c, _ = pending.pop(f.key)
             try:
-                rec = f.result()
+                records = f.result()
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: record and go on
-                rec = _worker_failure(i, exc)
+                records = _chunk_failure(c, exc)
             f.release()
-            yield rec
+            yield from records
             seen += 1
-            if seen % 64 == 0:  # workers may join or leave
+            if seen % 16 == 0:  # workers may join or leave
                 window = 2 * threads()
             top_up()
     finally:
@@ -678,7 +813,12 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
     process (debugging). ``scheduler``: None (local pool), ``"local"`` (a Dask LocalCluster of
     ``workers`` processes), a Dask scheduler address such as ``"tcp://host:8786"``, or a
     ``dask.distributed.Client``. ``progress``: auto, bar, log or none. ``labeller`` must be a
-    picklable ``(index, spec) -> record`` (default :func:`label_beam`).
+    picklable ``(index, spec) -> record`` (default :func:`label_beam`, whose chunks are fitted
+    in one batch by :func:`label_beams`; a custom labeller is called once per index).
+
+    Tasks are chunks of ``spec["fit_batch"]`` consecutive indices (see :func:`chunks`); the
+    value comes from the set when ``spec`` has none (1 for a set made before chunking,
+    :data:`DEFAULT_FIT_BATCH` for a new set).
 
     Returns a summary dict (see ``prbdm dataset generate --json``). Raises BadInput for a spec that
     differs from the folder's, RuntimeError when a worker process dies (what was done is kept).
@@ -702,17 +842,20 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
     versions, commit = _versions(), _git_commit()
 
     with _FolderLock(out):
-        manifest = _open_set(out, spec, int(count), versions, commit)
+        manifest, spec = _open_set(out, spec, int(count), versions, commit)
         _remove_temporaries(out)
         existing = _existing_indices(out)
         done = np.zeros(count, dtype=bool)
         done[existing[existing < count]] = True
         todo = np.flatnonzero(~done).tolist()
+        fit_batch = int(spec["fit_batch"])
+        tasks = chunks(todo, fit_batch)
         parts = part_files(out)
         next_part = 1 + max((int(p.stem.split("-")[1]) for p in parts), default=-1)
         run = {"id": uuid.uuid4().hex[:12], "started": _now(), "finished": None,
                "count": int(count), "todo": len(todo), "written": 0, "errors": 0,
-               "workers": None, "scheduler": None if scheduler is None else (
+               "fit_batch": fit_batch, "workers": None,
+               "scheduler": None if scheduler is None else (
                    scheduler if isinstance(scheduler, str) else "dask client"),
                "host": socket.gethostname(), "versions": versions, "git_commit": commit}
         if manifest["versions"] != versions or manifest["git_commit"] != commit:
@@ -732,7 +875,7 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
                    _run_pool if workers >= 1 else _run_inline)
         t_ready = time.monotonic()
         restore_threads = _torch_threads() if backend is not _run_pool else None
-        results = backend(todo, spec, labeller, workers, scheduler) if todo else iter(())
+        results = backend(tasks, spec, labeller, workers, scheduler) if todo else iter(())
         last_flush = time.monotonic()
 
         def flush():
@@ -758,7 +901,8 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
                 if scheduler is not None:
                     run["scheduler"] = where["where"]
                 meter.log(f"{len(todo)} beams to label ({int(count) - len(todo)} already in "
-                          f"{out}), {where['workers']} workers ({where['where']}, ready in "
+                          f"{out}) in {len(tasks)} tasks of up to {fit_batch}, "
+                          f"{where['workers']} workers ({where['where']}, ready in "
                           f"{t_ready - t_start:.1f} s)")
                 meter.start()
             for rec in results:
@@ -785,7 +929,8 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
     summary = {"out": str(out), "count": int(count), "records": int(np.unique(idx).size),
                "new": run["written"], "new_errors": run["errors"],
                "missing": int(count - np.unique(idx[idx < count]).size),
-               "parts": len(part_files(out)), "workers": run["workers"],
+               "parts": len(part_files(out)), "fit_batch": fit_batch,
+               "workers": run["workers"],
                "scheduler": run["scheduler"], "wall_s": run["wall_s"],
                "startup_s": round(t_ready - t_start, 3), "labelling_s": round(labelled, 3),
                "beams_per_s": (run["written"] / labelled) if run["written"] and labelled > 0

@@ -321,9 +321,11 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
 
     beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
     [rad/s], ascending; modes: how many truth modes to map (r = min(joints, modes), default
-    joints); starts: per beam (default :func:`default_starts`). ``init_gamma`` (B, n+1): start
-    every beam from its own gamma instead (e.g. a network's prediction, then a few iterations
-    refine it); ``starts`` is then 1. Returns one :class:`FitResult` per beam.
+    joints); starts: per beam (default :func:`default_starts`). ``seed``: one int (every beam
+    gets the same start points) or a sequence of B ints, one per beam (beam b then starts where
+    ``fit_prbdm(..., seed=seed[b])`` would). ``init_gamma`` (B, n+1): start every beam from its
+    own gamma instead (e.g. a network's prediction, then a few iterations refine it); ``starts``
+    is then 1. Returns one :class:`FitResult` per beam.
     """
     t0 = time.perf_counter()
     n = _check_int(joints, "joints", 1, int(1 / GAMMA_MIN) - 1)
@@ -349,8 +351,17 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     pose_t = make_poses(poses, n)
     lam_hat = omega_truth[:, :r] ** 2 / bt.lambda0[:, None]           # nondimensional truth
     B = len(beams)
-    if init_gamma is None:
-        z0 = start_points(n, starts, seed)                               # (S, n+1)
+    if isinstance(seed, (int, np.integer)):
+        seeds = [int(seed)] * B
+    else:
+        seeds = [int(s) for s in seed]
+        if len(seeds) != B:
+            raise BadInput(f"seed: need one int or one per beam ({B}), got {len(seeds)}")
+    if init_gamma is None and len(set(seeds)) > 1:
+        z = torch.cat([start_points(n, starts, s) for s in seeds])       # (B*S, n+1)
+        S = z.shape[0] // B
+    elif init_gamma is None:
+        z0 = start_points(n, starts, seeds[0] if seeds else 0)           # (S, n+1)
         S = z0.shape[0]
         z = z0.repeat(B, 1)
     else:
@@ -386,8 +397,8 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         cand = torch.nonzero(lb <= best * (1 + rep_rtol) + 1e-12).squeeze(-1)
         pick = cand[torch.argmin(torch.linalg.vector_norm(gam[cand] - ref, dim=-1))]
         results.append(_result(beams[bi], bt, bi, zb[pick], pose_t, omega_truth[bi], lam_hat[bi],
-                               r, law, S, int(near.sum()), spread, iters, elapsed / B, seed,
-                               float(best)))
+                               r, law, S, int(near.sum()), spread, iters, elapsed / B,
+                               seeds[bi], float(best)))
     return results
 
 

@@ -95,7 +95,8 @@ def test_generate_extend_and_plain_pyarrow(tmp_path):
 
     manifest = json.loads((out / D.MANIFEST).read_text())
     assert manifest["format"] == "prbdm-dataset" and manifest["count"] == 10
-    assert manifest["spec"] == spec and manifest["spec"]["seed"] == 7
+    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH}
+    assert manifest["spec"]["seed"] == 7 and manifest["runs"][0]["fit_batch"] == 8
     assert {"python", "prbdm", "numpy", "pyarrow"} <= set(manifest["versions"])
     assert "git_commit" in manifest and len(manifest["runs"]) == 3
     assert all(r["finished"] for r in manifest["runs"])
@@ -141,8 +142,8 @@ def test_stale_temporary_is_ignored_and_removed(tmp_path):
 def test_process_pool_matches_in_process(tmp_path):
     spec = D.make_spec(**SPEC)
     D.generate(tmp_path / "a", 5, spec, workers=0, labeller=fake_labeller, progress="none")
-    s = D.generate(tmp_path / "b", 5, spec, workers=2, labeller=fake_labeller, part_size=2,
-                   progress="none")
+    s = D.generate(tmp_path / "b", 5, {**spec, "fit_batch": 2}, workers=2,
+                   labeller=fake_labeller, part_size=2, progress="none")
     assert s["workers"] == 2
     a = D.read_table(tmp_path / "a").drop(["time_s", "worker"])
     b = D.read_table(tmp_path / "b").drop(["time_s", "worker"])
@@ -196,6 +197,7 @@ def test_dask_local_cluster_same_records(tmp_path):
     assert s["new"] == 2 and s["new_errors"] == 0 and s["parts"] == 2
     manifest = D.read_manifest(tmp_path / "dask")
     assert manifest["runs"][0]["scheduler"].startswith("dask ")
+    assert manifest["spec"]["fit_batch"] == D.DEFAULT_FIT_BATCH   # one chunk: a batched fit
     got = D.read_table(tmp_path / "dask").to_pylist()
     for rec in got:
         ref = D.label_beam(rec["index"], spec)
@@ -208,7 +210,7 @@ def test_kill9_then_resume(tmp_path):
     """kill -9 the generating process mid-run, rerun: no index missing, none duplicated."""
     out = tmp_path / "set"
     cmd = _cli("dataset", "generate", "--out", str(out), "--count", "8", *REAL,
-               "--workers", "1", "--part-size", "1", "--progress", "log")
+               "--workers", "1", "--part-size", "1", "--progress", "log", "--fit-batch", "2")
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)
     try:
@@ -261,3 +263,145 @@ def test_cli_local_dask_cluster_processes(tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["records"] == 3
+
+
+# ---------------------------------------------------------------------- chunks: batched fits
+
+def test_chunks_have_fixed_boundaries():
+    assert D.chunks([0, 1, 2, 3, 4], 2) == [[0, 1], [2, 3], [4]]
+    assert D.chunks([1, 2, 5, 7, 8, 9], 4) == [[1, 2], [5, 7], [8, 9]]
+    assert D.chunks([3, 4], 1) == [[3], [4]]
+    assert D.chunks([], 8) == []
+
+
+def test_chunked_labels_equal_per_beam_fits():
+    """One fit_many call for a chunk gives each beam the label (and seed) of its own fit."""
+    spec = D.make_spec(**SPEC, fit_batch=3)
+    together = D.label_beams([0, 1, 2], spec)
+    assert [r["index"] for r in together] == [0, 1, 2]
+    for rec in together:
+        ref = D.label_beam(rec["index"], spec)
+        assert rec["status"] == ref["status"] == "ok", (rec["error"], ref["error"])
+        assert rec["fit_seed"] == ref["fit_seed"] == D._fit_seed(spec, rec["index"])
+        assert rec["x"] == ref["x"] and rec["omega_truth"] == ref["omega_truth"]
+        assert np.allclose(rec["gamma"], ref["gamma"], atol=1e-3)
+        assert rec["loss_percent"] == pytest.approx(ref["loss_percent"], rel=1e-4)
+        assert rec["time_s"] > 0 and rec["cpu_s"] > 0
+    # the chunk's fit time is divided among its beams
+    assert len({r["fit_time_s"] for r in together}) == 1
+    # fit_many with one seed per beam: each beam starts where its own fit starts
+    from prbdm.fit import fit_many, fit_prbdm
+
+    beams = [D.beam_for(spec, i) for i in (0, 1)]
+    om = np.stack([r["omega_truth"][:2] for r in together[:2]])
+    many = fit_many(beams, om, joints=2, starts=4, seed=[11, 12])
+    assert [r.seed for r in many] == [11, 12]
+    one = fit_prbdm(beams[1], om[1], joints=2, starts=4, seed=12)
+    assert np.allclose(many[1].gamma, one.gamma, atol=1e-3)
+    with pytest.raises(BadInput, match="seed"):
+        fit_many(beams, om, joints=2, starts=4, seed=[1, 2, 3])
+
+
+def test_chunk_failure_isolation(monkeypatch):
+    """A truth failure is its beam's record; if the batched fit fails, each beam is fitted alone
+    and only the beam that fails is an error."""
+    import prbdm.fit
+    import prbdm.truth
+
+    real_truth, real_many = prbdm.truth.bending_frequencies, prbdm.fit.fit_many
+
+    def flaky_truth(beam, **kw):
+        if "index=1 " in beam.name:
+            raise RuntimeError("solver blew up")
+        return real_truth(beam, **kw)
+
+    def flaky_many(beams, *a, **kw):       # fit_prbdm calls fit_many with one beam
+        if len(beams) > 1:
+            raise FloatingPointError("batch went wrong")
+        if "index=2 " in beams[0].name:
+            raise ValueError("bad beam")
+        return real_many(beams, *a, **kw)
+
+    monkeypatch.setattr(prbdm.truth, "bending_frequencies", flaky_truth)
+    monkeypatch.setattr(prbdm.fit, "fit_many", flaky_many)
+    recs = D.label_beams([0, 1, 2, 3], D.make_spec(**SPEC))
+    assert [r["status"] for r in recs] == ["ok", "error", "error", "ok"]
+    assert recs[1]["error"] == "truth: RuntimeError: solver blew up"
+    assert recs[2]["error"] == "fit: ValueError: bad beam"
+    assert recs[2]["omega_truth"] and recs[1]["x"]              # what was computed is kept
+
+
+class _Crash(BaseException):
+    pass
+
+
+def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
+    """A crash after part of a chunk was written: the resumed run fits only the missing beams of
+    that chunk, together, and recomputes nothing."""
+    import prbdm.fit
+
+    out = tmp_path / "set"
+    spec = D.make_spec(**SPEC, fit_batch=3)
+    real_write, writes = D._write_part, []
+
+    def crashing_write(*a, **kw):           # the 5th part write never happens: a crash
+        if len(writes) >= 4:
+            raise _Crash()
+        writes.append(a[2][0]["index"])
+        return real_write(*a, **kw)
+
+    monkeypatch.setattr(D, "_write_part", crashing_write)
+    with pytest.raises(_Crash):
+        D.generate(out, 6, spec, workers=0, part_size=1, progress="none")
+    monkeypatch.setattr(D, "_write_part", real_write)
+    assert sorted(D._existing_indices(out).tolist()) == [0, 1, 2, 3]   # chunk [3, 6) partly
+    before = {p.name: p.read_bytes() for p in D.part_files(out)}
+
+    real_many, batches = prbdm.fit.fit_many, []
+
+    def spy(beams, *a, **kw):
+        batches.append(sorted(int(b.name.split("index=")[1].split()[0]) for b in beams))
+        return real_many(beams, *a, **kw)
+
+    monkeypatch.setattr(prbdm.fit, "fit_many", spy)
+    s = D.generate(out, 6, D.make_spec(**SPEC), workers=0, progress="none")  # set's fit_batch
+    assert s["new"] == 2 and s["missing"] == 0 and s["fit_batch"] == 3
+    assert batches == [[4, 5]]                 # the missing beams of the chunk, in one batch
+    assert all((out / n).read_bytes() == b for n, b in before.items())
+    table = D.read_table(out)
+    assert table.column("index").to_pylist() == list(range(6))
+    assert pq.read_table(out).num_rows == 6     # none duplicated
+    for rec in table.to_pylist()[4:]:
+        ref = D.label_beam(rec["index"], spec)
+        assert np.allclose(rec["gamma"], ref["gamma"], atol=2e-3)
+
+
+def test_fit_batch_option_and_old_sets(tmp_path, capsys):
+    out = tmp_path / "set"
+    # validation: exit 2, one line
+    for bad in ("0", "257", "two"):
+        with pytest.raises(SystemExit) as exc:    # argparse rejects it before the command runs
+            main(["dataset", "generate", "--out", str(out), "--count", "1", *REAL,
+                  "--fit-batch", bad])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "--fit-batch" in err, err
+    with pytest.raises(BadInput, match="--fit-batch"):
+        D.make_spec(**SPEC, fit_batch=0)
+    assert not out.exists()
+    # a set made before chunking (no fit_batch in its spec) resumes one beam per task
+    spec = D.make_spec(**SPEC)
+    D.generate(out, 2, spec, workers=0, labeller=fake_labeller, progress="none")
+    manifest = json.loads((out / D.MANIFEST).read_text())
+    del manifest["spec"]["fit_batch"]
+    (out / D.MANIFEST).write_text(json.dumps(manifest))
+    s = D.generate(out, 4, spec, workers=0, labeller=fake_labeller, progress="none")
+    assert s["fit_batch"] == 1 and s["new"] == 2
+    assert "fit_batch" not in D.read_manifest(out)["spec"]        # the old spec is kept as is
+    assert D.generate(out, 5, {**spec, "fit_batch": 1}, workers=0, labeller=fake_labeller,
+                      progress="none")["new"] == 1
+    # asking for another batch size on an existing set is refused, naming the flag
+    assert main(["dataset", "generate", "--out", str(out), "--count", "6", *REAL,
+                 "--fit-batch", "4"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--fit-batch" in err and "fit_batch = 1" in err, err

@@ -34,6 +34,9 @@ def add_arguments(parser):
                    help="pose set (default paper)")
     g.add_argument("--starts", type=positive_int(1), metavar="S",
                    help="fit multistart points (default 64)")
+    g.add_argument("--fit-batch", type=positive_int(1, 256), metavar="B",
+                   help="beams per batched fit, one task each (default: the set's value; 8 for a "
+                   "new set; 1 = one fit per beam). Part of the spec")
     g.add_argument("--seed", type=positive_int(0), default=0, metavar="S",
                    help="random-beam stream (default 0); beam i is random_beam(S, i)")
     g.add_argument("--stations", type=positive_int(0), metavar="p",
@@ -78,7 +81,8 @@ def _generate(args) -> int:
         poses = float_list(args.poses, "--poses")
     spec = dataset.make_spec(joints=args.joints, modes=args.modes, truth=args.truth,
                              law=args.law, poses=poses, starts=args.starts, seed=args.seed,
-                             p=args.stations, min_half_width=args.min_half_width)
+                             p=args.stations, min_half_width=args.min_half_width,
+                             fit_batch=args.fit_batch)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         summary = dataset.generate(args.out, args.count, spec, workers=args.workers,
@@ -114,7 +118,7 @@ def _info(args) -> int:
     spec = s["spec"]
     print(f"{s['dir']}: joints {spec['joints']}, modes {spec['modes']}, truth {spec['truth']} "
           f"({spec['truth_modes']} modes), law {spec['law']}, poses {spec['poses']}, "
-          f"starts {spec['starts']}, seed {spec['seed']}")
+          f"starts {spec['starts']}, seed {spec['seed']}, fit batch {spec.get('fit_batch', 1)}")
     print(f"records {s['unique']} of {s['count']} ({'complete' if s['complete'] else 'incomplete'}"
           f", {s['missing']} missing, {s['duplicated']} duplicated) in {s['parts']} parts, "
           f"{s['bytes'] / 1e6:.2f} MB")
