@@ -597,8 +597,10 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
     if res["plate_failures"]:
         lines += ["", "Plate truth failures: " + "; ".join(
             f"beam {f['beam']}: {f['error']}" for f in res["plate_failures"])]
-    lines += ["", "## Stability on stiff and extreme cases", ""]
-    lines.append(stability_md if stability_md else stability_note)
+    # the stability suite's Markdown brings its own heading
+    if not (stability_md or "").lstrip().startswith("#"):
+        lines += ["", "## Stability on stiff and extreme cases"]
+    lines += ["", stability_md if stability_md else stability_note]
     return "\n".join(lines) + "\n"
 
 
@@ -757,7 +759,7 @@ def write_report(cfg: ReportConfig, out) -> dict:
 
     res = run_report(cfg)
     stab_md, stab_note = stability_section(cfg)
-    res["stability"] = {"included": stab_md is not None, "note": stab_note}
+    res["stability"] = {"included": stab_md is not None, "note": stab_note, "markdown": stab_md}
     files = {"error_vs_time.png": plot_error_vs_time(res), **plot_scaling(res)}
     files["report.md"] = render_markdown(res, stab_md, stab_note)
     files["report.json"] = json.dumps(res, indent=1, default=_jsonable) + "\n"
