@@ -65,6 +65,8 @@ vp_weight = 1.0                      # physics: + vp_weight * the loss of the pr
                                      # its best SCFs (variable projection on the truth, as the fit)
 cells = 16                           # feature cells along x / L
 rfe_segments = 24                    # links of the rigid-finite-element frequency estimate
+rfe_coarse = 0                       # > 0: that estimate by Rayleigh-Ritz from a chain of this
+                                     # many links (cheap; see prbdm.surrogate.rfe_log_omega)
 threads = 1                          # torch threads
 quiet = False                        # only the summary lines
 # -------------------------------------------------------------------------------------------
@@ -143,7 +145,8 @@ poses = model.make_poses(spec["poses"], n)
 m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
-fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"])
+fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
+                       rfe_coarse=rfe_coarse)
 batch = sg.BeamBatch.from_table(table, material)
 feats = sg.features(batch, fspec)
 names = sg.feature_names(fspec)
