@@ -399,6 +399,9 @@ def rfe_log_omega(batch: BeamBatch, segments: int, modes: int, coarse: int = 0) 
 
 
 # ============================================================================ 3. features
+#: beams per piece in features() and Surrogate.forward(): bounds the memory of large batches
+CHUNK = 2048
+
 @dataclass(frozen=True)
 class FeatureSpec:
     """What the features are: ``cells`` equal cells of x / L for the width means,
@@ -431,6 +434,9 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec()) -> np.ndarray:
     Invariant to scaling all half-widths, the thickness, the length, E and rho (beam truth);
     the plate truth adds ``log_aspect`` and ``nu``.
     """
+    if len(batch) > CHUNK:      # the Ritz arrays are (B, 95, 8): bounded pieces
+        return np.concatenate([features(batch.take(slice(i, i + CHUNK)), spec)
+                               for i in range(0, len(batch), CHUNK)])
     wmax = batch.w.max(axis=-1)
     wn = batch.w / wmax[:, None]
     edges = np.linspace(0.0, 1.0, spec.cells + 1)
@@ -860,6 +866,13 @@ class Surrogate:
         without them logk and mu are None (and, with several candidates, gamma is the first)."""
         # the MLP in float32 (its weights are float32): twice as fast as float64, and its
         # round-off (1e-7) is far below the network's own error
+        if feats.shape[0] > CHUNK:  # see features(): bounded pieces
+            parts = [self.forward(feats[i:i + CHUNK],
+                                  None if batch is None else batch.take(slice(i, i + CHUNK)))
+                     for i in range(0, feats.shape[0], CHUNK)]
+            return {key: (None if parts[0][key] is None
+                          else np.concatenate([part[key] for part in parts]))
+                    for key in parts[0]}
         h = ((feats - self.f_mean) / self.f_std).astype(np.float32)
         for W, b in self.layers[:-1]:
             h = _silu(h @ W.T + b)
