@@ -58,14 +58,14 @@ weight_decay = 1e-5
 max_epochs = 400
 patience = 80                        # epochs without a better validation loss before stopping
 lr_patience = 20                     # epochs without improvement before halving the lr
-max_minutes = 8.0                    # wall-clock limit per mode
+max_minutes = 9.0                    # wall-clock limit per mode
 phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
 freq_weight = 1.0                    # weight of the frequency head's label term
 vp_weight = 1.0                      # physics: + vp_weight * the loss of the predicted gamma with
                                      # its best SCFs (variable projection on the truth, as the fit)
 cells = 16                           # feature cells along x / L
-rfe_segments = 24                    # links of the rigid-finite-element frequency estimate
-rfe_coarse = 0                       # > 0: that estimate by Rayleigh-Ritz from a chain of this
+rfe_segments = 96                    # links of the rigid-finite-element frequency estimate
+rfe_coarse = 16                      # > 0: that estimate by Rayleigh-Ritz from a chain of this
                                      # many links (cheap; see prbdm.surrogate.rfe_log_omega)
 threads = 1                          # torch threads
 quiet = False                        # only the summary lines
