@@ -258,22 +258,6 @@ def test_mujoco_loads_the_urdf_with_the_same_mass_matrix(mujoco):
 
 # ----------------------------------------------------------------------------- command line
 @pytest.fixture
-def run(monkeypatch, capsys):
-    # until cli.py registers them, add the two subcommands for these tests
-    monkeypatch.setitem(cli.COMMANDS, "export", ("prbdm.commands.export", "export a PRBDM"))
-    monkeypatch.setitem(cli.COMMANDS, "simulate", ("prbdm.commands.simulate", "simulate"))
-
-    def go(*argv):
-        try:
-            rc = cli.main(list(map(str, argv)))
-        except SystemExit as exc:
-            rc = exc.code
-        out, err = capsys.readouterr()
-        return rc, out, err
-    return go
-
-
-@pytest.fixture
 def files(tmp_path):
     beam = tmp_path / "beam.json"
     beam.write_text(TAPERED.to_json())

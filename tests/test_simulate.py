@@ -143,21 +143,6 @@ def test_impulse_and_damping(linear_fit):
 
 
 # ----------------------------------------------------------------------------- command line
-@pytest.fixture
-def run(monkeypatch, capsys):
-    monkeypatch.setitem(cli.COMMANDS, "export", ("prbdm.commands.export", "export a PRBDM"))
-    monkeypatch.setitem(cli.COMMANDS, "simulate", ("prbdm.commands.simulate", "simulate"))
-
-    def go(*argv):
-        try:
-            rc = cli.main(list(map(str, argv)))
-        except SystemExit as exc:
-            rc = exc.code
-        out, err = capsys.readouterr()
-        return rc, out, err
-    return go
-
-
 def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     beam = tmp_path / "beam.json"
     beam.write_text(TAPERED.to_json())
