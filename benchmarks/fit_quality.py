@@ -10,7 +10,6 @@ paper poses, `beam` law. One torch thread (the fastest setting on a shared 2-cor
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np

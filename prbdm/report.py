@@ -37,7 +37,7 @@ import os
 import platform
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -508,7 +508,7 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         f"- **Machine:** {env['cores']} cores ({env['system']} {env['machine']}), load average "
         f"{env['load_average_start']:.2f} at the start and {env['load_average_end']:.2f} at the "
         f"end (other jobs were running); torch on {env['torch_threads']} thread.",
-        f"- **Versions:** " + ", ".join(f"{k} {v}" for k, v in env["versions"].items()) + ".",
+        "- **Versions:** " + ", ".join(f"{k} {v}" for k, v in env["versions"].items()) + ".",
         f"- **Random draws:** held-out beams as above; fit start points seeded with "
         f"{c['fit_seed']}; network-throughput beams `{sc['network_throughput']['beams']}`.",
         "",

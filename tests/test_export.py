@@ -10,7 +10,6 @@ import pytest
 import torch
 from scipy.integrate import quad
 
-from prbdm import cli
 from prbdm.errors import BadInput
 from prbdm.export import (URDF_NS, plate_integrals, prbdm_from_fit, to_json, to_mjcf, to_urdf)
 from prbdm.geometry import Beam

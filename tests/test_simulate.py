@@ -10,7 +10,6 @@ import pytest
 import torch
 from scipy.integrate import solve_ivp
 
-from prbdm import cli
 from prbdm.export import prbdm_from_fit, run_fit
 from prbdm.geometry import Beam
 from prbdm.model import BeamTensors, links_from_gamma, mass_matrix
