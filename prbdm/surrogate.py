@@ -400,6 +400,22 @@ def rfe_log_omega(batch: BeamBatch, segments: int, modes: int, coarse: int = 0) 
 # ============================================================================ 3. features
 #: beams per piece in features() and Surrogate.forward(): bounds the memory of large batches
 CHUNK = 2048
+#: beams per piece (at most) in Surrogate.predict; the pieces are spread over threads
+PIECE = 1024
+
+
+def default_threads() -> int:
+    """Threads for batched prediction: ``$PRBDM_THREADS`` if set, else the usable cores."""
+    env = os.environ.get("PRBDM_THREADS")
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            raise BadInput(f"PRBDM_THREADS: must be an integer >= 1, got {env!r}") from None
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:          # not on Linux
+        return os.cpu_count() or 1
 
 @dataclass(frozen=True)
 class FeatureSpec:
@@ -908,13 +924,47 @@ class Surrogate:
         return (f"{int(bad.any(1).sum())} of {bad.shape[0]} input(s) outside the training range "
                 f"of checkpoint {self.name} in feature(s) {names}; first: {texts[0]}")
 
-    def predict(self, beams_or_features, frequencies: bool = True, warn: bool = True
-                ) -> Prediction:
+    def _features_and_outputs(self, batch: BeamBatch, threads: int | None):
+        """features and decoded outputs of a batch of beams, in pieces of at most ``CHUNK``
+        beams spread over ``threads`` threads (NumPy releases the GIL in its array loops and
+        LAPACK calls, so the pieces run side by side on a multi-core machine)."""
+        B = len(batch)
+        threads = default_threads() if threads is None else max(1, int(threads))
+        # the pieces do not depend on the thread count, so neither do the results (the float32
+        # MLP's round-off depends on the shape of its matrix products)
+        pieces = max(-(-B // PIECE), 1)
+        if pieces == 1:
+            feats = features(batch, self.feature_spec)
+            return feats, self.forward(feats, batch)
+        size = -(-B // pieces)
+        slices = [slice(i, min(i + size, B)) for i in range(0, B, size)]
+
+        def work(sl):
+            part = batch.take(sl)
+            f = features(part, self.feature_spec)
+            return f, self.forward(f, part)
+
+        if threads > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(min(threads, len(slices))) as pool:
+                done = list(pool.map(work, slices))
+        else:
+            done = [work(sl) for sl in slices]
+        feats = np.concatenate([f for f, _ in done])
+        keys = done[0][1].keys()
+        return feats, {k: (None if done[0][1][k] is None
+                           else np.concatenate([d[k] for _, d in done])) for k in keys}
+
+    def predict(self, beams_or_features, frequencies: bool = True, warn: bool = True,
+                threads: int | None = None) -> Prediction:
         """Predict for Beam(s), a :class:`BeamBatch`, or a (B, F) feature array.
 
         With beams: also the truth frequencies in rad/s and, if ``frequencies``, the PRBDM's
         frequencies per pose (B, m, n). Out-of-range features raise one
-        :class:`OutOfDistributionWarning` (if ``warn``) and are flagged in ``ood``."""
+        :class:`OutOfDistributionWarning` (if ``warn``) and are flagged in ``ood``. Large
+        batches run in pieces on ``threads`` threads (default: the usable cores, or
+        ``$PRBDM_THREADS``); the result does not depend on the thread count."""
         t0 = time.perf_counter()
         batch = None
         if isinstance(beams_or_features, np.ndarray):
@@ -927,11 +977,13 @@ class Surrogate:
         else:
             batch = (beams_or_features if isinstance(beams_or_features, BeamBatch)
                      else BeamBatch.from_beams(beams_or_features))
-            feats = features(batch, self.feature_spec)
+        if batch is None:
+            d = self.forward(feats, None)
+        else:
+            feats, d = self._features_and_outputs(batch, threads)
         bad, texts = self.check_range(feats)
         if warn and texts:
             warnings.warn(OutOfDistributionWarning(self.ood_summary(bad, texts)), stacklevel=2)
-        d = self.forward(feats, batch)
         gamma, logk, low, mu = d["gamma"], d["logk"], d["log_omega_hat"], d["mu"]
         pred = Prediction(gamma=gamma, k=None if logk is None else np.exp(logk),
                           log_omega_hat=low, poses=self.poses, law=self.law, ood=bad,
@@ -957,7 +1009,8 @@ _CACHE: dict = {}
 
 
 def predict(beams_or_features, joints: int | None = None, truth: str = "beam", checkpoint=None,
-            frequencies: bool = True, warn: bool = True) -> Prediction:
+            frequencies: bool = True, warn: bool = True, threads: int | None = None
+            ) -> Prediction:
     """Batched prediction with a checkpoint: ``checkpoint`` (a path or a loaded
     :class:`Surrogate`), or the default one for (``joints``, ``truth``). See
     :meth:`Surrogate.predict`."""
@@ -975,7 +1028,7 @@ def predict(beams_or_features, joints: int | None = None, truth: str = "beam", c
     if joints is not None and sur.joints != joints:
         raise BadInput(f"--joints {joints}: checkpoint {sur.name} was trained for "
                        f"{sur.joints} joints")
-    return sur.predict(beams_or_features, frequencies=frequencies, warn=warn)
+    return sur.predict(beams_or_features, frequencies=frequencies, warn=warn, threads=threads)
 
 
 def loss_percent_np(omega_or_lam_pose, lam_truth, r: int, is_lambda: bool = True):

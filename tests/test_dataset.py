@@ -186,6 +186,24 @@ def test_label_beam_real_and_failure_isolation(tmp_path, monkeypatch):
     assert df.loc[0, "loss_percent"] == pytest.approx(rec["loss_percent"], rel=1e-3)
 
 
+def test_truth_only_set(tmp_path):
+    """--starts 0: the geometry and truth of the labelled set, no fit, status ok; the fit columns
+    are null and `dataset info` reports no loss."""
+    out = tmp_path / "truth"
+    assert main(["dataset", "generate", "--out", str(out), "--count", "3", "--joints", "2",
+                 "--starts", "0", "--seed", "7", "--workers", "0", "--progress", "none"]) == 0
+    df = D.read_table(out).to_pandas().set_index("index")
+    assert (df["status"] == "ok").all() and df["gamma"].isna().all() and df["k"].isna().all()
+    assert df["loss_percent"].isna().all() and df["fit_time_s"].isna().all()
+    rec = D.label_beam(1, D.make_spec(**SPEC))            # same seed, with a fit
+    assert list(df.loc[1, "x"]) == rec["x"]
+    assert np.allclose(df.loc[1, "omega_truth"], rec["omega_truth"], rtol=1e-10, atol=0)
+    info = D.info(out)
+    assert info["ok"] == 3 and info["loss_percent"] is None and info["spec"]["starts"] == 0
+    with pytest.raises(BadInput, match="--starts"):
+        D.make_spec(joints=2, starts=-1)
+
+
 def test_dask_local_cluster_same_records(tmp_path):
     from dask.distributed import Client, LocalCluster
 

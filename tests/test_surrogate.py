@@ -365,3 +365,42 @@ def test_training_log_and_comparison_recorded():
     for mode, res in meta["training"]["comparison"].items():
         assert {"loss_mean", "loss_median", "loss_p95", "freq_err_median"} <= set(res["val"])
         assert res["epochs"] <= 4
+
+
+def test_threaded_prediction_equals_one_thread(monkeypatch):
+    sur = sg.load_checkpoint(tiny_checkpoint())
+    monkeypatch.setattr(sg, "PIECE", 7)          # several pieces from a small batch
+    beams = sg.BeamBatch.from_beams([random_beam(5, i) for i in range(30)])
+    one = sur.predict(beams, warn=False, threads=1)
+    for threads in (2, 3):
+        many = sur.predict(beams, warn=False, threads=threads)
+        for key in ("gamma", "k", "omega", "omega_truth", "log_omega_hat"):
+            np.testing.assert_array_equal(getattr(many, key), getattr(one, key))
+    monkeypatch.setattr(sg, "PIECE", 10 ** 6)    # one piece: the same numbers again
+    whole = sur.predict(beams, warn=False, threads=2)
+    np.testing.assert_allclose(whole.k, one.k, rtol=1e-9)
+    monkeypatch.setenv("PRBDM_THREADS", "zero")
+    with pytest.raises(BadInput, match="PRBDM_THREADS"):
+        sg.default_threads()
+
+
+def test_physics_training_on_a_truth_only_set(tmp_path):
+    """A truth-only set (starts 0: no fits) trains the physics mode and refuses the label modes."""
+    data = tmp_path / "truth-only"
+    D.generate(data, 12, D.make_spec(joints=2, starts=0, seed=3), workers=0, progress="none")
+    table = D.read_table(data).to_pandas()
+    assert (table["status"] == "ok").all() and table["gamma"].isna().all()
+    assert table["omega_truth"].map(len).eq(3).all()
+    ckpt = tmp_path / "ckpt" / "beam-n2.safetensors"
+    common = [sys.executable, str(TRAIN), f"--data={data}", f"--out={ckpt}", "--max_epochs=2",
+              "--width=16", "--depth=1", "--quiet=True", "--batch_size=4"]
+    run = subprocess.run(common + ["--modes=physics,label"], capture_output=True, text=True,
+                         cwd=REPO, timeout=300)
+    assert run.returncode != 0 and "truth-only" in run.stderr
+    run = subprocess.run(common + ["--modes=physics"], capture_output=True, text=True, cwd=REPO,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    meta = json.loads(ckpt.with_suffix(".json").read_text())
+    assert meta["dataset"]["spec"]["starts"] == 0 and meta["test"]["fit_loss_median"] is None
+    p = sg.load_checkpoint(ckpt).predict([random_beam(3, 100)], warn=False)
+    assert np.all(p.k > 0) and abs(p.gamma.sum() - 1) < 1e-12

@@ -6,7 +6,9 @@
 Held-out beams (``--split``): ``test`` is the checkpoint's test split (``index % 10 == 9`` among
 the records it was trained from); ``new`` is every record of the data set with an index beyond the
 last one the checkpoint saw (generated later, never used in any way); ``heldout`` (default) is
-both. Measured, on the same beams:
+both. A data set drawn with another ``--seed`` than the training set holds only new beams (another
+random stream of the same generator); it may also differ in its start count (a truth-only
+training set has none) and labelling batch, nothing else. Measured, on the same beams:
 
 - network: the PRBDM predicted by the checkpoint, re-evaluated against the stored truth
   (SPEC §3 loss, %): median, p95, mean; the per-mode error of the network's direct truth-frequency
@@ -14,8 +16,9 @@ both. Measured, on the same beams:
 - fit: the optimised fits stored in the data set (their loss; their time as recorded by the
   labelling worker, and, for ``refit_count`` beams, re-run here with the data set's start count);
 - refined: the fit started from the network's gamma with ``refine_iter`` iterations
-  (:func:`prbdm.fit.fit_many` with ``init_gamma``), one beam at a time, for ``refine_count`` beams:
-  its loss against the optimised fit's (ratio; share within 10 %) and its time;
+  (:func:`prbdm.fit.fit_many` with ``init_gamma``), ``fit_batch`` beams per call, for
+  ``refine_count`` beams: its loss against the optimised fit's (ratio; share within 10 %) and its
+  time, beside the full fit re-run with the same batching;
 - throughput of :func:`prbdm.surrogate.predict` on ``throughput_count`` random beams.
 """
 import ast
@@ -35,6 +38,9 @@ refine_count = 200        # beams refined one at a time (0: skip)
 refine_iter = 20
 refine_candidates = True  # also refine from all of the network's candidate gammas (one batch)
 refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
+fit_batch = 1             # beams per fit_many call in the refined and re-fit rows (1: one at
+                          # a time; the data sets label in batches of 8): time per beam is the
+                          # call's time divided by its beams
 throughput_count = 10000  # random beams for the batched-prediction rate (0: skip)
 threads = 1
 json_out = ""             # also write the results as JSON to this file
@@ -65,16 +71,27 @@ sur = sg.load_checkpoint(checkpoint)
 meta = sur.metadata
 data = data or meta["dataset"]["path"]
 manifest = ds.read_manifest(data)
-if ds.spec_difference(manifest["spec"], meta["dataset"]["spec"]) is not None:
+# a set may differ from the training set in what does not change the beams' distribution or their
+# truth: the random stream (another seed: every beam is new), the fit's start count (a truth-only
+# training set has 0) and the labelling batch
+_ALLOWED = {"seed", "starts", "fit_batch"}
+_a, _b = dict(manifest["spec"]), dict(meta["dataset"]["spec"])
+for _key in _ALLOWED:
+    _a.pop(_key, None), _b.pop(_key, None)
+if ds.spec_difference(_a, _b) is not None:
     sys.exit(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
-             f"(field {ds.spec_difference(manifest['spec'], meta['dataset']['spec'])})")
+             f"(field {ds.spec_difference(_a, _b)})")
+other_seed = manifest["spec"]["seed"] != meta["dataset"]["spec"]["seed"]
+if manifest["spec"]["starts"] == 0:
+    sys.exit(f"evaluate_surrogate: data set {data} is truth-only (no optimised fits to compare "
+             "with); make one with --starts 64 (the default)")
 table = ds.read_table(data, columns=["index", "x", "half_width", "thickness", "omega_truth",
                                      "gamma", "k", "loss_percent", "fit_time_s"],
                       status="ok").to_pandas()
 max_index = meta["dataset"]["max_index"]
 idx = table["index"].to_numpy()
-test_mask = (idx <= max_index) & (idx % 10 == 9)
-new_mask = idx > max_index
+test_mask = (idx <= max_index) & (idx % 10 == 9) & (not other_seed)
+new_mask = (idx > max_index) | other_seed
 mask = {"test": test_mask, "new": new_mask, "heldout": test_mask | new_mask}[split]
 table = table[mask].reset_index(drop=True)
 B = len(table)
@@ -125,7 +142,7 @@ if refine_count or refit_count:
     import torch
 
     torch.set_num_threads(threads)
-    from prbdm.fit import fit_many, fit_prbdm
+    from prbdm.fit import fit_many
 
     poses = sur.poses.tolist()
     law = sur.law
@@ -134,35 +151,37 @@ if refine_count or refit_count:
     pick = np.sort(rng.choice(B, size=min(refine_count, B), replace=False))
     beams = {i: ds.beam_for(spec, int(table["index"][i])) for i in
              set(pick.tolist()) | set(range(min(refit_count, B)))}
+    groups = [pick[i:i + fit_batch] for i in range(0, len(pick), fit_batch)]
     if refine_count:
         lr, tr = [], []
-        for i in pick:
+        for g in groups:
             t0 = time.perf_counter()
-            res = fit_many([beams[i]], omega_t[i:i + 1], joints=n, modes=r, law=law, poses=poses,
-                           init_gamma=pred.gamma[i:i + 1], max_iter=refine_iter)[0]
-            tr.append(time.perf_counter() - t0)
-            lr.append(res.loss_percent)
+            res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
+                           poses=poses, init_gamma=pred.gamma[g], max_iter=refine_iter)
+            tr += [(time.perf_counter() - t0) / len(g)] * len(g)
+            lr += [x.loss_percent for x in res]
         lr, tr = np.array(lr), np.array(tr)
         if refine_candidates and "gamma_candidates" in pred.extra:
             lc, tc = [], []
-            for i in pick:
-                cand = pred.extra["gamma_candidates"][i]
-                H = len(cand)
+            H = pred.extra["gamma_candidates"].shape[1]
+            for g in groups:
+                cand = pred.extra["gamma_candidates"][g].reshape(len(g) * H, -1)
                 t0 = time.perf_counter()
-                res = fit_many([beams[i]] * H, np.repeat(omega_t[i:i + 1], H, 0), joints=n,
-                               modes=r, law=law, poses=poses, init_gamma=cand,
+                res = fit_many([beams[i] for i in g for _ in range(H)], np.repeat(omega_t[g], H, 0),
+                               joints=n, modes=r, law=law, poses=poses, init_gamma=cand,
                                max_iter=refine_iter)
-                tc.append(time.perf_counter() - t0)
-                lc.append(min(x.loss_percent for x in res))
+                tc += [(time.perf_counter() - t0) / len(g)] * len(g)
+                lc += [min(x.loss_percent for x in res[j * H:(j + 1) * H]) for j in range(len(g))]
             lc, tc = np.array(lc), np.array(tc)
             rc = lc / loss_fit[pick]
             results["refined_candidates"] = {
                 "beams": int(len(pick)), "starts": int(H), "max_iter": refine_iter,
+                "fit_batch": fit_batch,
                 "loss_median": q(lc, 50), "loss_p95": q(lc, 95), "ratio_median": q(rc, 50),
                 "ratio_p95": q(rc, 95), "share_within_10pct": float(np.mean(rc <= 1.10)),
                 "time_s_median": q(tc, 50), "time_s_mean": float(tc.mean())}
         ratio = lr / loss_fit[pick]
-        results["refined"] = {"beams": int(len(pick)), "max_iter": refine_iter,
+        results["refined"] = {"beams": int(len(pick)), "max_iter": refine_iter, "fit_batch": fit_batch,
                               "loss_median": q(lr, 50), "loss_p95": q(lr, 95),
                               "fit_loss_median_same_beams": q(loss_fit[pick], 50),
                               "ratio_median": q(ratio, 50), "ratio_p95": q(ratio, 95),
@@ -171,12 +190,14 @@ if refine_count or refit_count:
                               "time_s_median": q(tr, 50), "time_s_mean": float(tr.mean())}
     if refit_count:
         tf, lf = [], []
-        for i in range(min(refit_count, B)):
-            res = fit_prbdm(beams[i], omega_t[i], joints=n, modes=r, law=law, poses=poses,
-                            starts=spec["starts"], seed=0)
-            tf.append(res.time_s)
-            lf.append(res.loss_percent)
-        results["refit"] = {"beams": len(tf), "starts": spec["starts"],
+        rows = list(range(min(refit_count, B)))
+        for g in [rows[i:i + fit_batch] for i in range(0, len(rows), fit_batch)]:
+            t0 = time.perf_counter()
+            res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
+                           poses=poses, starts=spec["starts"], seed=0)
+            tf += [(time.perf_counter() - t0) / len(g)] * len(g)
+            lf += [x.loss_percent for x in res]
+        results["refit"] = {"beams": len(tf), "starts": spec["starts"], "fit_batch": fit_batch,
                             "time_s_median": q(tf, 50), "time_s_mean": float(np.mean(tf)),
                             "loss_median": q(lf, 50)}
 

@@ -1,4 +1,4 @@
-"""Train the PRBDM surrogate: from a labelled data set folder to a checkpoint.
+"""Train the PRBDM surrogate: from a data set folder to a checkpoint.
 
 One script, read top to bottom (nanoGPT style). Configuration is the plain values just below;
 override any of them on the command line as ``--name=value``:
@@ -153,12 +153,25 @@ names = sg.feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
 rfe0 = 2 * cells
-y_gamma = np.stack(table["gamma"].to_numpy())
-y_logk = np.log(np.stack(table["k"].to_numpy()))
+# a truth-only set (``prbdm dataset generate --starts 0``) has no fitted labels: only the physics
+# mode can train on it (it needs the truth frequencies alone); the label normalisation is then the
+# rigid-finite-element segmentation and k = 1
+labelled = spec["starts"] > 0
+run_modes = [s.strip() for s in modes.split(",") if s.strip()]
+if not labelled and set(run_modes) - {"physics"}:
+    sys.exit(f"train_surrogate: --modes: the data set {data} is truth-only (starts 0, no fitted "
+             f"labels); only 'physics' can train on it, got {modes!r}")
+if labelled:
+    y_gamma = np.stack(table["gamma"].to_numpy())
+    y_logk = np.log(np.stack(table["k"].to_numpy()))
+else:
+    y_gamma = np.broadcast_to(sg._uniform_gamma(n), (N, n + 1)).copy()
+    y_logk = np.zeros((N, m))
 y_corr = log_omega_hat - feats[:, rfe0:rfe0 + R]
 sha = sg.dataset_hash(table)
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index}; n = {n}, "
-    f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; sha256 {sha[:16]}")
+    f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; "
+    f"{'fitted labels' if labelled else 'truth only (no fitted labels)'}; sha256 {sha[:16]}")
 
 # ------------------------------------------------------------------------------- 2. split
 idx = table["index"].to_numpy()
@@ -256,7 +269,8 @@ def make_net():
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
-        g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
+        g = ((norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3) if labelled
+             else torch.full((n + 1,), 1.0 / (n + 1)))         # no labels: equal links
         # candidates start apart: the mean label, rigid-finite-element-like, a long root link
         # (the two families of fitted optima), then random segmentations
         long_root = torch.full((n + 1,), 0.3 / n)
@@ -334,7 +348,7 @@ def train(mode):
 
 results = {}
 nets = {}
-for mode in [s.strip() for s in modes.split(",") if s.strip()]:
+for mode in run_modes:
     nets[mode], results[mode] = train(mode)
 selected = min(results, key=lambda k: results[k]["val"]["loss_mean"])
 log(f"selected mode: {selected} (lowest mean validation PRBDM loss)")
@@ -390,12 +404,13 @@ if len(te):
     lam_net = (pred.omega / np.sqrt(batch.lambda0[te])[:, None, None]) ** 2
     loss_net = sg.loss_percent_np(lam_net, lam_hat[te].numpy(), r)
     ferr = np.abs(pred.omega_truth / omega_truth[te] - 1)
-    loss_fit = table["loss_percent"].to_numpy()[te]
+    loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
+    has_fit = bool(np.isfinite(loss_fit).all())
     test = {"beams": int(len(te)),
             "loss_median": float(np.median(loss_net)), "loss_p95": float(np.percentile(loss_net, 95)),
             "loss_mean": float(loss_net.mean()), "loss_max": float(loss_net.max()),
-            "fit_loss_median": float(np.median(loss_fit)),
-            "fit_loss_p95": float(np.percentile(loss_fit, 95)),
+            "fit_loss_median": float(np.median(loss_fit)) if has_fit else None,
+            "fit_loss_p95": float(np.percentile(loss_fit, 95)) if has_fit else None,
             "freq_err_median": np.median(ferr, 0).tolist(),
             "freq_err_p95": np.percentile(ferr, 95, 0).tolist(),
             "out_of_range_beams": int(pred.ood.any(1).sum()),
@@ -403,9 +418,10 @@ if len(te):
             "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
     meta["test"] = test
     sg.save_checkpoint(out_path, net.weights(), meta)
+    fits = (f"optimised fits: median {test['fit_loss_median']:.4f} % p95 "
+            f"{test['fit_loss_p95']:.4f} %" if has_fit else "no fits in a truth-only set")
     log(f"test ({len(te)} beams): PRBDM loss median {test['loss_median']:.4f} % p95 "
-        f"{test['loss_p95']:.4f} % (optimised fits: median {test['fit_loss_median']:.4f} % p95 "
-        f"{test['fit_loss_p95']:.4f} %); freq-prediction error median per mode "
+        f"{test['loss_p95']:.4f} % ({fits}); freq-prediction error median per mode "
         f"{[round(e * 100, 3) for e in test['freq_err_median']]} %")
 log(f"checkpoint {out_path} ({out_path.stat().st_size / 1e3:.0f} kB), training "
     f"{train_time:.0f} s, total {time.perf_counter() - t_start:.0f} s; log {log_path}")

@@ -32,8 +32,9 @@ def add_arguments(parser):
                    help="stiffness law (default beam)")
     g.add_argument("--poses", default="paper", metavar="paper|linear|t1,t2,...",
                    help="pose set (default paper)")
-    g.add_argument("--starts", type=positive_int(1), metavar="S",
-                   help="fit multistart points (default 64)")
+    g.add_argument("--starts", type=positive_int(0), metavar="S",
+                   help="fit multistart points (default 64; 0 = truth only, no fit: enough for "
+                   "the surrogate's physics training)")
     g.add_argument("--fit-batch", type=positive_int(1, 256), metavar="B",
                    help="beams per batched fit, one task each (default: the set's value; 8 for a "
                    "new set; 1 = one fit per beam). Part of the spec")
