@@ -33,14 +33,24 @@ def test_uniform_beam_matches_the_analytic_solution():
 
 @pytest.mark.parametrize("beam", [
     Beam(x=[0, 0.35, 1.0], half_width=[0.18, 0.12, 0.05], thickness=0.03, name="SPEC example"),
-    WAIST, STEP, random_beam(0, 0), random_beam(1, 2)],
-    ids=["spec-example", "waist-100", "step-100", "random-0-0", "random-1-2"])
+    WAIST, STEP, random_beam(0, 0), random_beam(1, 2),
+    Beam(x=[0, 1], half_width=[0.5, 0.001], thickness=0.01, name="2 mm wide tip")],
+    ids=["spec-example", "waist-100", "step-100", "random-0-0", "random-1-2", "tip-2mm"])
 def test_variable_width_beam_matches_a_mesh_free_shooting_solution(beam):
     fem = bending_frequencies(beam, "beam", modes=5)
     exact = shooting_eigenvalues(beam, fem.lam)
     err = np.sqrt(fem.lam / exact) - 1
     assert np.all(err > -2e-6)             # conforming: upper bounds (up to rounding)
     assert np.abs(err).max() < 0.5 * SPEC_BEAM
+
+
+@pytest.mark.parametrize("half_width", [0.002, 0.5])
+def test_narrow_and_wide_uniform_beams_match_the_analytic_solution(half_width):
+    """Unchanged relative accuracy at the stability limits of the half-width (2 mm and 0.5 m)."""
+    b = Beam(x=[0, 1.0], half_width=[half_width] * 2, thickness=0.01)
+    fem = bending_frequencies(b, "beam", modes=5)
+    exact = bending_frequencies(b, "analytic", modes=5)
+    assert np.abs(fem.omega / exact.omega - 1).max() < SPEC_BEAM
 
 
 def test_grading_is_what_resolves_a_sharp_waist():

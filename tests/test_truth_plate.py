@@ -194,6 +194,28 @@ def test_extreme_planforms_give_finite_positive_ascending_frequencies(name):
     assert np.all(np.diff(res.omega) > 0)
 
 
+ACCURACY_CASES = {
+    "2mm tip": STABILITY["2mm tip"],
+    "hw=2mm": STABILITY["hw=2mm, t=1mm"],
+    "hw=0.5m": Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.01),
+    "100:1 waist": STABILITY["100:1 waist"],
+    "100:1 step": Beam(x=[0, 0.4, 0.41, 1], half_width=[0.2, 0.2, 0.002, 0.002],
+                       thickness=0.01),
+}
+
+
+@pytest.mark.parametrize("name", list(ACCURACY_CASES))
+def test_extreme_planforms_keep_the_default_accuracy(name):
+    """Unchanged relative accuracy on the extreme cases: the default mesh against the reference
+    mesh of the convergence study (elements=24, corner_ratio=0.003, grade=0.3). Measured
+    (docs/truth.md): 2mm tip 2.2e-7, hw=2mm 8.3e-5, hw=0.5m 7.1e-6, waist 4.1e-5, step 1.1e-5;
+    each case takes under 3 s."""
+    b = ACCURACY_CASES[name]
+    default = bending_frequencies(b, "plate", modes=5)
+    fine = bending_frequencies(b, "plate", modes=5, elements=24, corner_ratio=0.003, grade=0.3)
+    assert np.abs(default.omega / fine.omega - 1).max() < SPEC_PLATE
+
+
 def test_rubber_and_steel_of_one_shape_solve_the_same_problem():
     shape = dict(x=[0, 0.3, 1], half_width=[0.1, 0.05, 0.02])
     a = bending_frequencies(Beam(**shape, thickness=0.005,
