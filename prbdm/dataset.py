@@ -545,7 +545,8 @@ def _now() -> str:
 
 
 def _open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> tuple[dict, dict]:
-    """Create the manifest of a new set, or check that an existing one has the same spec.
+    """The manifest of a new set (not written yet: :func:`generate` writes it once the workers
+    are ready), or the existing one, checked to have the same spec.
 
     Returns (manifest, the spec of this run). ``fit_batch`` absent from ``spec`` means the set's
     value, absent from a set's spec (made before chunking) means 1; an existing manifest's spec
@@ -572,7 +573,6 @@ def _open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> tupl
                 "count": count, "created": _now(), "versions": versions, "git_commit": commit,
                 "columns": {k: {"type": t, "meaning": m} for k, (t, m) in COLUMNS.items()},
                 "runs": []}
-    _write_manifest(out, manifest)
     return manifest, spec
 
 
@@ -677,6 +677,10 @@ def _run_pool(tasks, spec, labeller, workers, scheduler):
         pool.shutdown(wait=False, cancel_futures=True)
 
 
+#: how long to try to reach a Dask scheduler address before refusing the run [s]
+CONNECT_TIMEOUT_S = 20
+
+
 def _dask_client(workers: int, scheduler):
     """(client, things to close): ``"local"`` starts a LocalCluster, else connect to an address."""
     import logging
@@ -691,7 +695,7 @@ def _dask_client(workers: int, scheduler):
                                    dashboard_address=None, silence_logs=logging.ERROR)
         return Client(cluster), [cluster]
     try:
-        client = Client(scheduler, timeout="20s")
+        client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
     except (OSError, TimeoutError, ValueError) as exc:
         raise BadInput(f"--scheduler: cannot connect to {scheduler!r} ({type(exc).__name__}: "
                        f"{exc})") from None
@@ -871,9 +875,6 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
             if todo:
                 _say(progress, stream, "note: this run's package versions or git commit differ "
                      "from the set's creation (each run is recorded in the manifest)")
-        manifest["count"] = max(int(manifest["count"]), int(count))
-        manifest["runs"].append(run)
-        _write_manifest(out, manifest)
         metadata = {"prbdm.version": __version__, "prbdm.git_commit": str(commit),
                     "prbdm.run": run["id"]}
 
@@ -903,12 +904,18 @@ def generate(out, count: int, spec: dict, workers: int | None = None, scheduler=
             last_flush = time.monotonic()
 
         try:
+            # start the backend first: a scheduler that is refused or a pool that fails to
+            # start raises here, before the manifest is written, so it is left as it was
             where = next(results, None) if todo else None
             t_ready = time.monotonic()
             if where is not None:
                 run["workers"] = where["workers"]
                 if scheduler is not None:
                     run["scheduler"] = where["where"]
+            manifest["count"] = max(int(manifest["count"]), int(count))
+            manifest["runs"].append(run)
+            _write_manifest(out, manifest)
+            if where is not None:
                 meter.log(f"{len(todo)} beams to label ({int(count) - len(todo)} already in "
                           f"{out}) in {len(tasks)} tasks of up to {fit_batch}, "
                           f"{where['workers']} workers ({where['where']}, ready in "

@@ -423,3 +423,100 @@ def test_fit_batch_option_and_old_sets(tmp_path, capsys):
                  "--fit-batch", "4"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "--fit-batch" in err and "fit_batch = 1" in err, err
+
+
+# ---------------------------------------------------------------------- refused runs, progress
+
+def test_refused_scheduler_leaves_manifest_unchanged(tmp_path, capsys, monkeypatch):
+    """A run refused before its workers are ready (a bad or unreachable --scheduler) changes
+    nothing: the manifest keeps its bytes (count, runs), and a new folder gets no manifest."""
+    out = tmp_path / "set"
+    D.generate(out, 10, D.make_spec(**SPEC), workers=0, labeller=fake_labeller, progress="none")
+    before = (out / D.MANIFEST).read_bytes()
+    assert main(["dataset", "generate", "--out", str(out), "--count", "20", *REAL,
+                 "--scheduler", "bogus", "--progress", "none"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--scheduler" in err, err
+    assert (out / D.MANIFEST).read_bytes() == before
+    monkeypatch.setattr(D, "CONNECT_TIMEOUT_S", 0.5)      # an address nobody listens on
+    with pytest.raises(BadInput, match="--scheduler: cannot connect"):
+        D.generate(out, 20, D.make_spec(**SPEC), scheduler="tcp://127.0.0.1:1",
+                   labeller=fake_labeller, progress="none")
+    assert (out / D.MANIFEST).read_bytes() == before
+    assert main(["dataset", "info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "records 10 of 10 (complete, 0 missing" in text and text.count("\nrun ") == 1
+    # a new folder: refused without a manifest, and a later run makes the set as usual
+    new = tmp_path / "new"
+    with pytest.raises(BadInput, match="--scheduler"):
+        D.generate(new, 3, D.make_spec(**SPEC), scheduler="bogus", progress="none")
+    assert not (new / D.MANIFEST).exists()
+    s = D.generate(new, 3, D.make_spec(**SPEC), workers=0, labeller=fake_labeller,
+                   progress="none")
+    assert s["records"] == 3 and len(D.read_manifest(new)["runs"]) == 1
+
+
+def test_info_text_runs_without_workers(tmp_path, capsys):
+    out = tmp_path / "set"
+    spec = D.make_spec(**SPEC)
+    D.generate(out, 2, spec, workers=0, labeller=fake_labeller, progress="none")
+    D.generate(out, 2, spec, workers=0, labeller=fake_labeller, progress="none")  # nothing to do
+    manifest = json.loads((out / D.MANIFEST).read_text())
+    manifest["runs"].append({**manifest["runs"][0], "todo": 4, "written": 0, "workers": None,
+                             "finished": None, "wall_s": None})   # an older prbdm's record
+    (out / D.MANIFEST).write_text(json.dumps(manifest))
+    assert main(["dataset", "info", str(out)]) == 0
+    runs = [line for line in capsys.readouterr().out.splitlines() if line.startswith("run ")]
+    assert len(runs) == 3 and "None" not in "".join(runs)
+    assert "1 workers, finished" in runs[0]
+    assert "nothing to label, finished" in runs[1]
+    assert "not started, interrupted" in runs[2]
+
+
+def test_progress_log_lines_when_not_a_terminal(tmp_path):
+    import io
+
+    stream = io.StringIO()
+    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    assert meter.mode == "log"
+    meter.start()
+    for i in range(1, 5):
+        meter.update({"index": i, "status": "error" if i == 3 else "ok"})
+    meter.close()
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 4 and all(line.startswith("prbdm dataset: ") for line in lines)
+    assert "2/5 beams (0 errors this run)" in lines[0]
+    assert "5/5 beams (1 errors this run)" in lines[-1]
+    assert all(" beams/s, ETA " in line for line in lines)
+    assert lines[-1].endswith("ETA 0s")                        # nothing left
+    assert "\r" not in stream.getvalue()                        # no bar drawn
+    # with the default interval, generate logs only its first and last lines
+    stream = io.StringIO()
+    D.generate(tmp_path / "set", 5, D.make_spec(**SPEC), workers=0, labeller=fake_labeller,
+               progress="auto", stream=stream)
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 2 and "5 beams to label (0 already in" in lines[0]
+    assert "done: 5 new records (1 errors)" in lines[1]
+
+
+def test_progress_bar_on_a_terminal():
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Terminal()
+    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    assert meter.mode == "bar"
+    meter.start()
+    assert meter.bar is not None
+    for i in range(1, 5):
+        meter.update({"index": i, "status": "error" if i == 3 else "ok"})
+    meter.log("a message")
+    meter.close()
+    text = stream.getvalue()
+    assert "5/5" in text and "100%" in text and "<00:00" in text     # tqdm's bar: count, ETA,
+    assert "beam/s" in text                                             # and rate
+    assert "errors=1" in text and "a message" in text
+    assert "prbdm dataset: " not in text.replace("prbdm dataset: a message", "")  # no log lines

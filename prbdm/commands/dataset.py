@@ -136,7 +136,10 @@ def _info(args) -> int:
     print(table(rows, ["", "mean", "median", "p95", "max"]))
     for r in s["runs"]:
         state = "finished" if r["finished"] else "interrupted (or still running)"
-        print(f"run {r['started']}: {r['written']} records, {r['errors']} errors, "
-              f"{r['workers']} workers{' on ' + r['scheduler'] if r['scheduler'] else ''}, {state}"
-              + (f", {r['wall_s']:.1f} s" if r.get("wall_s") else ""))
+        if r["workers"] is not None:
+            where = f"{r['workers']} workers{' on ' + r['scheduler'] if r['scheduler'] else ''}"
+        else:  # no workers were started: nothing to do, or a run from before they were recorded
+            where = "nothing to label" if r.get("todo") == 0 else "not started"
+        print(f"run {r['started']}: {r['written']} records, {r['errors']} errors, {where}, "
+              f"{state}" + (f", {r['wall_s']:.1f} s" if r.get("wall_s") else ""))
     return 0
