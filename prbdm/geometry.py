@@ -21,6 +21,14 @@ from .errors import BadInput
 __all__ = ["Material", "Beam", "STEEL", "random_beam", "RANDOM_DEFAULTS", "load_beam"]
 
 
+def _show(v) -> str:
+    """A value for a message: NumPy scalars as plain Python numbers (``0.1``, not
+    ``np.float64(0.1)``), anything else by its repr."""
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        v = v.item()
+    return repr(v)
+
+
 @dataclass(frozen=True)
 class Material:
     """Isotropic linear-elastic material.
@@ -36,15 +44,15 @@ class Material:
         for name in ("E", "rho", "nu"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
-                raise BadInput(f"material.{name}: must be a number, got {v!r}")
+                raise BadInput(f"material.{name}: must be a number, got {_show(v)}")
             if not math.isfinite(v):
-                raise BadInput(f"material.{name}: must be finite, got {v!r}")
+                raise BadInput(f"material.{name}: must be finite, got {_show(v)}")
         if not self.E > 0:
-            raise BadInput(f"material.E: must be > 0 Pa, got {self.E!r}")
+            raise BadInput(f"material.E: must be > 0 Pa, got {_show(self.E)}")
         if not self.rho > 0:
-            raise BadInput(f"material.rho: must be > 0 kg/m^3, got {self.rho!r}")
+            raise BadInput(f"material.rho: must be > 0 kg/m^3, got {_show(self.rho)}")
         if not -1.0 < self.nu < 0.5:
-            raise BadInput(f"material.nu: must lie in (-1, 0.5), got {self.nu!r}")
+            raise BadInput(f"material.nu: must lie in (-1, 0.5), got {_show(self.nu)}")
 
     def to_dict(self) -> dict:
         return {"E": float(self.E), "rho": float(self.rho), "nu": float(self.nu)}
@@ -88,20 +96,20 @@ class Beam:
         if w.size != x.size:
             raise BadInput(f"half_width: needs one value per station of x ({x.size}), got {w.size}")
         if x[0] != 0.0:
-            raise BadInput(f"x: must start at 0 (the clamp), got x[0] = {x[0]!r}")
+            raise BadInput(f"x: must start at 0 (the clamp), got x[0] = {_show(x[0])}")
         steps = np.diff(x)
         if np.any(steps <= 0):
             k = int(np.argmax(steps <= 0))
-            raise BadInput(f"x: must be strictly increasing, but x[{k + 1}] = {x[k + 1]!r} <= "
-                           f"x[{k}] = {x[k]!r}")
+            raise BadInput(f"x: must be strictly increasing, but x[{k + 1}] = {_show(x[k + 1])} <= "
+                           f"x[{k}] = {_show(x[k])}")
         if np.any(w <= 0):
             k = int(np.argmax(w <= 0))
-            raise BadInput(f"half_width: must be > 0 m everywhere, got half_width[{k}] = {w[k]!r}")
+            raise BadInput(f"half_width: must be > 0 m everywhere, got half_width[{k}] = {_show(w[k])}")
         t = self.thickness
         if isinstance(t, bool) or not isinstance(t, (int, float, np.floating, np.integer)):
-            raise BadInput(f"thickness: must be a number, got {t!r}")
+            raise BadInput(f"thickness: must be a number, got {_show(t)}")
         if not math.isfinite(t) or not t > 0:
-            raise BadInput(f"thickness: must be a finite number > 0 m, got {t!r}")
+            raise BadInput(f"thickness: must be a finite number > 0 m, got {_show(t)}")
         if not isinstance(self.material, Material):
             raise BadInput("material: must be a Material")
         x.setflags(write=False)
@@ -197,7 +205,7 @@ class Beam:
         scale = max(xmax - xmin, ymax - ymin)
         tol = rtol * scale
         if abs(xmin) > tol:
-            raise BadInput(f"polygon: root edge must lie on x = 0, got min x = {xmin!r}")
+            raise BadInput(f"polygon: root edge must lie on x = 0, got min x = {_show(xmin)}")
         mirrored = affinity.scale(polygon, xfact=1.0, yfact=-1.0, origin=(0, 0))
         if polygon.symmetric_difference(mirrored).area > rtol * polygon.area + tol ** 2:
             raise BadInput("polygon: must be symmetric about the x axis")
@@ -232,7 +240,7 @@ def _polygon_top(polygon, xi: float, scale: float) -> float:
     xc = min(max(xi, xmin + eps), xmax - eps)
     cut = polygon.intersection(LineString([(xc, -2 * scale), (xc, 2 * scale)]))
     if cut.is_empty:
-        raise BadInput(f"polygon: no material at x = {xi!r}")
+        raise BadInput(f"polygon: no material at x = {_show(xi)}")
     return float(cut.bounds[3])
 
 
@@ -296,15 +304,15 @@ def random_beam(seed: int, index: int, p: int = 10, length: float = 1.0,
     """
     for name, v in (("seed", seed), ("index", index)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-            raise BadInput(f"{name}: must be an integer >= 0, got {v!r}")
+            raise BadInput(f"{name}: must be an integer >= 0, got {_show(v)}")
     if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 0:
-        raise BadInput(f"p: must be an integer >= 0, got {p!r}")
+        raise BadInput(f"p: must be an integer >= 0, got {_show(p)}")
     if not 0 <= min_half_width < max_half_width:
         raise BadInput(f"min_half_width: must lie in [0, max_half_width = {max_half_width}), "
-                       f"got {min_half_width!r}")
+                       f"got {_show(min_half_width)}")
     if not 0 < min_thickness <= max_thickness:
         raise BadInput(f"min_thickness: must lie in (0, max_thickness = {max_thickness}], "
-                       f"got {min_thickness!r}")
+                       f"got {_show(min_thickness)}")
     rng = np.random.default_rng([int(seed), int(index)])
     interior = np.sort(1.0 - rng.random(p))
     x = length * np.concatenate([[0.0], interior, [1.0]])

@@ -345,6 +345,16 @@ class SimulationResult:
         return d
 
 
+def check_damping(damping) -> None:
+    """BadInput naming ``--damping`` unless ``0 <= damping < 1``: the comparison measures the
+    first-mode period, and an overdamped (or critically damped) first mode does not oscillate."""
+    if isinstance(damping, bool) or not isinstance(damping, (int, float, np.floating, np.integer)) \
+            or not 0.0 <= damping < 1.0:
+        shown = float(damping) if isinstance(damping, (np.floating, np.integer)) else damping
+        raise BadInput(f"--damping: the first-mode damping ratio must lie in [0, 1) (underdamped: "
+                       f"a simulation compares oscillation periods), got {shown!r}")
+
+
 def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
@@ -361,6 +371,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
     L = beam.length
     if tip_deflection is not None and tip_impulse is not None:
         raise BadInput("--tip-deflection and --tip-impulse: give one, not both")
+    check_damping(damping)
     warnings = []
     if tip_impulse is not None:
         if not math.isfinite(tip_impulse) or tip_impulse == 0:

@@ -54,6 +54,7 @@ def assert_bad(rc, out, err, *words):
     lines = err.strip("\n").split("\n")
     assert len(lines) == 1, err
     assert "Traceback" not in err
+    assert "np." not in lines[0], lines[0]      # plain numbers, not NumPy reprs
     for w in words:
         assert w in lines[0], (w, lines[0])
 
@@ -159,6 +160,9 @@ def test_beam_from_stdin(capsys, monkeypatch):
     ("inf,0.5", ["--gamma", "finite"]),
     ("", ["--gamma"]),
     (",", ["--gamma", "empty"]),
+    ("0.5,0.5,,", ["--gamma", "empty field"]),
+    ("0.5,,0.5", ["--gamma", "empty field"]),
+    (",0.5,0.5", ["--gamma", "empty field"]),
 ])
 def test_bad_gamma(capsys, beam_file, gamma, words):
     assert_bad(*run(capsys, beam_file(), "--gamma", gamma, "--k", "1"), *words)
@@ -177,6 +181,7 @@ def test_gamma_sum_within_tolerance_is_accepted(capsys, beam_file):
     ("1,-1,1,1,1,1,1,1,1", ["--k", "> 0"]),
     ("nan", ["--k", "finite"]),
     ("stiff", ["--k", "numbers"]),
+    ("1,1,1,1,1,1,1,1,1,", ["--k", "empty field"]),
 ])
 def test_bad_k(capsys, beam_file, k, words):
     assert_bad(*run(capsys, beam_file(), "--gamma", PAPER_3R, "--k", k), *words)
@@ -226,6 +231,16 @@ def test_bad_beam_file(capsys, beam_file, data, field):
 def test_bad_json_text(capsys, beam_file, text, field):
     assert_bad(*run(capsys, beam_file(text=text), "--gamma", "0.5,0.5", "--k", "1"), field,
                "JSON")
+
+
+def test_bad_beam_messages_show_plain_numbers(capsys, beam_file):
+    """Values from the beam file appear as plain floats, e.g. ``x[0] = 0.1``."""
+    rc, out, err = run(capsys, beam_file(dict(UNIFORM, x=[0.1, 1.0])), "--gamma", "0.5,0.5",
+                       "--k", "1")
+    assert_bad(rc, out, err, "x[0] = 0.1")
+    rc, out, err = run(capsys, beam_file(dict(UNIFORM, half_width=[0.1, -0.12])), "--gamma",
+                       "0.5,0.5", "--k", "1")
+    assert_bad(rc, out, err, "half_width[1] = -0.12")
 
 
 def test_missing_beam_file(capsys, tmp_path):

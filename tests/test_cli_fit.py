@@ -63,6 +63,38 @@ def test_fit_bad_input_is_one_line(beam_file, capsys, args, field):
     assert len(err) == 1 and field in err[0] and "Traceback" not in err[0]
 
 
+@pytest.mark.parametrize("truth", ["analytic"])
+def test_fit_truth_message_names_the_fit_flag(beam_file, capsys, truth):
+    """The truth library's advice says --model (the flag of `prbdm truth`); `fit` says --truth."""
+    code = main(["fit", beam_file(TAPERED), "--joints", "2", "--truth", truth, "--starts", "2"])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert "--truth analytic" in err[0] and "use --truth beam or plate" in err[0], err[0]
+    assert "--model" not in err[0]
+
+
+def test_fit_with_more_modes_than_joints_in_the_json(beam_file, capsys):
+    """--modes 3 with n = 2: r = min(n, modes) = 2 modes mapped, 3 truth frequencies computed
+    (max(modes, n)); every pose reports its errors for the mapped modes only."""
+    code = main(["fit", beam_file(TAPERED), "--joints", "2", "--modes", "3", "--starts", "4",
+                 "--json"])
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["joints"] == 2 and out["modes"] == 2
+    assert len(out["omega_truth"]) == 3
+    m = len(out["k"])
+    assert len(out["freq_error"]) == len(out["omega"]) == len(out["poses"]) == m > 1
+    assert all(len(e) == 2 for e in out["freq_error"])
+    assert all(len(w) == 2 for w in out["omega"])      # an nR-PRBDM has n frequencies
+    assert out["max_freq_error"] == max(max(e) for e in out["freq_error"])
+    # the errors are those of the mapped modes against the truth
+    for w, e in zip(out["omega"], out["freq_error"]):
+        for j in range(2):
+            assert e[j] == pytest.approx(abs(w[j] / out["omega_truth"][j] - 1), rel=1e-9,
+                                         abs=1e-15)
+
+
 def test_fit_subprocess_exit_code(beam_file):
     r = subprocess.run([sys.executable, "-m", "prbdm.cli", "fit", beam_file(TAPERED),
                         "--joints", "2", "--truth", "analytic"], capture_output=True, text=True)

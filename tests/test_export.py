@@ -304,6 +304,34 @@ def test_cli_export_writes_atomically(run, files, monkeypatch):
     assert sorted(p.name for p in tmp.iterdir()) == ["beam.json", "fit.json", "m.xml"]
 
 
+def test_cli_export_file_permissions_follow_the_umask(run, files):
+    """A new file gets 0o666 less the umask (0o644 under the usual 022), not mkstemp's 0o600."""
+    tmp, beam, fit = files
+    old = os.umask(0o022)
+    try:
+        rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.xml")
+        assert rc == 0, err
+        assert (tmp / "m.xml").stat().st_mode & 0o777 == 0o644
+        os.umask(0o027)
+        rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.urdf")
+        assert rc == 0, err
+        assert (tmp / "m.urdf").stat().st_mode & 0o777 == 0o640
+    finally:
+        os.umask(old)
+
+
+def test_cli_export_refuses_a_missing_output_folder(run, files):
+    tmp, beam, fit = files
+    target = tmp / "no" / "such" / "m.xml"
+    rc, out, err = run("export", beam, "--from", fit, "-o", target)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert "-o/--output" in err and "does not exist" in err, err
+    assert not (tmp / "no").exists()                 # no folder made on the way
+    # refused before any fit is run: --joints fails as fast
+    rc, out, err = run("export", beam, "--joints", 2, "--starts", 4, "-o", target)
+    assert rc == 2 and "-o/--output" in err and not (tmp / "no").exists()
+
+
 @pytest.mark.parametrize("args, message", [
     (["--from", "FIT", "-o", "x.txt"], "--format: not given"),
     (["--from", "FIT", "-o", "x.xml", "--pose", "9"], "--pose: must be a pose index"),

@@ -102,6 +102,23 @@ def test_bad_beam_file(tmp_path, data, field):
     assert "\n" not in str(exc.value)
 
 
+@pytest.mark.parametrize("kwargs, shown", [
+    (dict(x=np.array([0.1, 1.0])), "x[0] = 0.1"),
+    (dict(x=np.array([0.0, 0.7, 0.5]), half_width=[0.1] * 3), "x[2] = 0.5 <= x[1] = 0.7"),
+    (dict(half_width=np.array([0.1, -0.12])), "half_width[1] = -0.12"),
+    (dict(thickness=np.float64(-0.02)), "got -0.02"),
+    (dict(material="E"), "got -1000000000.0"),
+])
+def test_messages_show_plain_numbers_not_numpy_reprs(kwargs, shown):
+    base = dict(x=[0.0, 1.0], half_width=[0.1, 0.1], thickness=0.02)
+    with pytest.raises(BadInput) as exc:
+        if "material" in kwargs:     # a NumPy scalar in the material
+            Material(E=np.float64(-1e9))
+        else:
+            Beam(**{**base, **kwargs})
+    assert "np." not in str(exc.value) and shown in str(exc.value), str(exc.value)
+
+
 @pytest.mark.parametrize("text, field", [(t, f) for _, t, f in BAD_FILES],
                          ids=[i for i, _, _ in BAD_FILES])
 def test_bad_json_file(tmp_path, text, field):

@@ -412,3 +412,31 @@ def test_bad_law_and_gamma():
         model.eigenvalues(beam, torch.tensor([0.5, 0.5]), poses="sideways")
     with pytest.raises(BadInput, match="poses"):
         model.eigenvalues(beam, torch.tensor([0.5, 0.5]), poses=[float("nan")])
+
+
+def test_public_entry_points_are_float64_whatever_the_default_dtype():
+    """float64 by default, not by the torch default dtype (the autouse fixture above sets float64:
+    undo that here, so a float32 default would show)."""
+    old = torch.get_default_dtype()
+    torch.set_default_dtype(torch.float32)
+    try:
+        beam = Beam(x=[0.0, 0.4, 1.0], half_width=[0.2, 0.1, 0.05], thickness=0.02)
+        assert model.uniform_gamma(3).dtype == torch.float64
+        assert model.paper_poses(3).dtype == torch.float64
+        assert model.make_poses("linear", 3).dtype == torch.float64
+        assert model.make_poses([0.1, 0.2], 3).dtype == torch.float64
+        assert model.BeamTensors.from_beams(beam).x.dtype == torch.float64
+        lam = model.eigenvalues(beam, [0.3, 0.2, 0.25, 0.25], [1.0], "linear")
+        assert lam.dtype == torch.float64
+        lam = model.eigenvalues(beam, [0.3, 0.2, 0.25, 0.25], None, "paper", "paper")
+        assert lam.dtype == torch.float64
+        lam = model.eigenvalues(beam, model.uniform_gamma(3))
+        assert lam.dtype == torch.float64
+        # and the values are float64-accurate: the same as with a float64 default
+        torch.set_default_dtype(torch.float64)
+        ref = model.eigenvalues(beam, [0.3, 0.2, 0.25, 0.25], [1.0], "linear")
+        torch.set_default_dtype(torch.float32)
+        again = model.eigenvalues(beam, [0.3, 0.2, 0.25, 0.25], [1.0], "linear")
+        assert torch.equal(again, ref)
+    finally:
+        torch.set_default_dtype(old)

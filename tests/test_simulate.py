@@ -141,6 +141,24 @@ def test_impulse_and_damping(linear_fit):
     assert again == pytest.approx(res.tip_truth, abs=1e-15)
 
 
+def test_overdamped_simulation_is_refused(linear_fit):
+    """No first-mode period to compare when zeta >= 1: refused, not a made-up 'linear theory'
+    period."""
+    from prbdm.errors import BadInput
+
+    for zeta in (1.0, 2.0, -0.5, float("nan")):
+        with pytest.raises(BadInput, match=r"--damping: .*\[0, 1\)"):
+            simulate(TAPERED, linear_fit, damping=zeta, periods=2)
+
+
+def test_cli_simulate_refuses_overdamping_before_fitting(run, tmp_path):
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    rc, out, err = run("simulate", beam, "--joints", 3, "--damping", 2)
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "--damping" in err and "[0, 1)" in err, err
+
+
 # ----------------------------------------------------------------------------- command line
 def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     beam = tmp_path / "beam.json"
@@ -170,6 +188,9 @@ def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     (["--duration", "1000"], "--duration: at most 500"),
     (["--plot", "x.gif"], "--plot: file must end in"),
     (["--pose", "2"], r"--pose: must be a pose index in \[0, 0\]"),
+    (["--damping", "2"], r"--damping: .*must lie in \[0, 1\).*got 2\.0"),
+    (["--damping", "1"], r"--damping: .*must lie in \[0, 1\)"),
+    (["--damping", "-0.1"], r"--damping"),
 ])
 def test_cli_simulate_bad_input(run, tmp_path, args, message):
     import re

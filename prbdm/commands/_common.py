@@ -17,12 +17,16 @@ def add_beam_argument(parser):
 
 def float_list(text: str, name: str, *, minimum=None, positive=False) -> list[float]:
     """Parse ``"a,b,c"`` into finite floats; BadInput naming ``name`` otherwise."""
+    fields = str(text).split(",")
+    if all(v.strip() == "" for v in fields):
+        raise BadInput(f"{name}: must not be empty")
+    if any(v.strip() == "" for v in fields):
+        raise BadInput(f"{name}: empty field in {text!r}; give a comma-separated list of numbers "
+                       "with no empty entries")
     try:
-        values = [float(v) for v in str(text).split(",") if v.strip() != ""]
+        values = [float(v) for v in fields]
     except ValueError:
         raise BadInput(f"{name}: must be a comma-separated list of numbers, got {text!r}") from None
-    if not values:
-        raise BadInput(f"{name}: must not be empty")
     if not all(math.isfinite(v) for v in values):
         raise BadInput(f"{name}: all values must be finite, got {text!r}")
     if positive and any(v <= 0 for v in values):
@@ -62,14 +66,26 @@ def table(rows, header) -> str:
     return "\n".join(lines)
 
 
-def atomic_write(path, data: bytes | str) -> None:
-    """Write a file whole or not at all: temporary file in the same folder, then rename."""
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write(path, data: bytes | str, *, make_parents: bool = True) -> None:
+    """Write a file whole or not at all: temporary file in the same folder, then rename.
+
+    The file gets the usual permissions of a new file (0o666 less the umask), not mkstemp's
+    0o600. ``make_parents=False``: a missing folder is an error (FileNotFoundError) instead of
+    being created."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if make_parents:
+        path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data.encode() if isinstance(data, str) else data)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -120,6 +120,13 @@ def run(args) -> int:
     if args.format is None and to_stdout:
         raise BadInput("--format: needed with -o -")
     fmt = args.format or format_from_path(args.output)
+    if not to_stdout:
+        from pathlib import Path
+
+        folder = Path(args.output).parent
+        if not folder.is_dir():
+            raise BadInput(f"-o/--output: folder {str(folder)!r} of {args.output!r} does not "
+                           "exist (it is not created)")
     beam = load_beam(args.beam)
     fit, warnings = fit_from_args(args, beam)
     desc = prbdm_from_fit(beam, fit, pose=args.pose, springref=args.springref,
@@ -131,7 +138,7 @@ def run(args) -> int:
         from ._common import atomic_write
 
         try:
-            atomic_write(args.output, text)
+            atomic_write(args.output, text, make_parents=False)
         except OSError as exc:
             raise BadInput(f"-o: cannot write {args.output!r} ({exc.strerror or exc})") from None
     for w in warnings:

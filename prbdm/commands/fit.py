@@ -54,7 +54,12 @@ def run(args) -> int:
 
     from ..truth import bending_frequencies
 
-    truth = bending_frequencies(beam, model=args.truth, modes=max(modes, n))
+    try:
+        truth = bending_frequencies(beam, model=args.truth, modes=max(modes, n))
+    except BadInput as exc:
+        # the truth library speaks of `prbdm truth --model`; here the flag is --truth
+        raise BadInput(str(exc).replace(f"model {args.truth!r}:", f"--truth {args.truth}:")
+                       .replace("--model", "--truth")) from None
 
     import torch
 

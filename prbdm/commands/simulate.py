@@ -35,7 +35,7 @@ def add_arguments(parser):
     ic.add_argument("--tip-impulse", type=finite_float(), default=None, metavar="P",
                     help="strike the straight beam at the tip with impulse P [N s]")
     parser.add_argument("--damping", type=finite_float(minimum=0.0), default=0.0, metavar="ZETA",
-                        help="first-mode damping ratio (stiffness-proportional; default 0)")
+                        help="first-mode damping ratio in [0, 1) (stiffness-proportional; default 0)")
     parser.add_argument("--duration", type=finite_float(positive=True), default=None,
                         metavar="T", help="simulated time [s] (default 20 first-mode periods)")
     parser.add_argument("--truth-modes", type=positive_int(1, 100), default=20, metavar="R",
@@ -47,9 +47,10 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..geometry import load_beam
-    from ..simulate import plot_simulation, simulate
+    from ..simulate import check_damping, plot_simulation, simulate
     from .fit import _check_plot_path
 
+    check_damping(args.damping)           # before the fit: an overdamped beam has no period
     if args.plot:
         _check_plot_path(args.plot)
     beam = load_beam(args.beam)
