@@ -2,6 +2,7 @@
 
     python benchmarks/bench_truth.py                 # full run (a few minutes on 2 cores)
     python benchmarks/bench_truth.py --quick         # fewer beams
+    python benchmarks/bench_truth.py --validation    # the validation section only (~1 min)
 
 Prints
 1. ms per beam for ``beam`` and ``plate`` at the default accuracy (random beams of the paper's
@@ -10,7 +11,9 @@ Prints
    the first five bending frequencies over the random beams, against a much finer reference mesh,
    and the mean time per beam;
 3. the validation numbers: the uniform beam against cos(a) cosh(a) = -1, the square plate against
-   Barton/Leissa.
+   Barton/Leissa, rectangular plates (L/b = 2, 0.5) against a converged Rayleigh-Ritz solution
+   (prbdm.truth.ritz_plate), the beam against shooting, the extreme planforms' default-mesh
+   error against the reference mesh.
 """
 from __future__ import annotations
 
@@ -26,7 +29,10 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from prbdm.geometry import Beam, Material, random_beam  # noqa: E402
 from prbdm.truth import bending_frequencies  # noqa: E402
+from prbdm.truth.ritz_plate import ritz_cantilever_plate  # noqa: E402
 from prbdm.truth.shooting import shooting_eigenvalues  # noqa: E402
+
+PLATE_REFERENCE = dict(elements=24, corner_ratio=0.003, grade=0.3)
 
 
 def timed(beams, model, **kw):
@@ -105,6 +111,8 @@ def validation():
              "100:1 step over 1 % of the span": Beam(x=[0, 0.4, 0.41, 1],
                                                      half_width=[0.2, 0.2, 0.002, 0.002],
                                                      thickness=0.01)}
+    cases["2 mm wide tip (0.5 m -> 1 mm)"] = Beam(x=[0, 1], half_width=[0.5, 0.001],
+                                                  thickness=0.01)
     cases.update({f"random_beam(1, {i})": random_beam(1, i) for i in range(6)})
     for name, b in cases.items():
         graded = bending_frequencies(b, "beam")
@@ -119,13 +127,54 @@ def validation():
         p = bending_frequencies(b, "plate", modes=4).omega
         a = bending_frequencies(b, "analytic", modes=4).omega
         print(f"  L / b = {1 / (2 * hw):5.0f}: " + " ".join(f"{v:+.2e}" for v in p / a - 1))
+    print("beam model, uniform beams at the half-width limits vs cos(a)cosh(a) = -1 (modes 1-5):")
+    for hw in (0.002, 0.5):
+        b = Beam(x=[0, 1.0], half_width=[hw, hw], thickness=0.01)
+        e = (bending_frequencies(b, "beam").omega / bending_frequencies(b, "analytic").omega - 1)
+        print(f"  half-width {hw:5.3f} m: " + " ".join(f"{v:+.1e}" for v in e))
+    print("rectangular plates nu = 0.3 vs Rayleigh-Ritz (prbdm.truth.ritz_plate, Legendre basis "
+          "n x n), omega L^2 sqrt(rho t / D), first 8 modes, both families:")
+    for aspect in (2.0, 0.5):
+        ritz = {n: ritz_cantilever_plate(aspect, nu=0.3, nx=n, ny=n)[:8] for n in (10, 14, 18)}
+        b = Beam(x=[0, 1.0], half_width=[0.5 / aspect] * 2, thickness=0.01,
+                 material=Material(nu=0.3))
+        res = bending_frequencies(b, "plate", modes=3, all_modes=True)
+        m = b.material
+        D = m.E * b.thickness ** 3 / (12 * (1 - m.nu ** 2))
+        fem = np.array([e["omega"] for e in res.all_modes[:8]]) * math.sqrt(m.rho * b.thickness
+                                                                               / D)
+        print(f"  L / b = {aspect:g}:")
+        for n, v in ritz.items():
+            print(f"    Ritz n = {n:2d}:  " + " ".join(f"{x:9.4f}" for x in v)
+                  + f"   (max change to n = 18: {np.abs(v / ritz[18] - 1).max():.1e})")
+        print("    plate FEM:    " + " ".join(f"{x:9.4f}" for x in fem))
+        print("    symmetry:     " + " ".join(f"{e['symmetry'][:4]:>9s}"
+                                             for e in res.all_modes[:8]))
+        print("    FEM/Ritz - 1: " + " ".join(f"{x:+9.1e}" for x in fem / ritz[18] - 1))
+    print("plate model, extreme planforms: default mesh vs the reference mesh "
+          f"{PLATE_REFERENCE}, largest relative error of the 5 bending frequencies:")
+    extreme = {"2 mm wide tip (0.5 m -> 1 mm)": Beam(x=[0, 1], half_width=[0.5, 0.001],
+                                                     thickness=0.01),
+               "half-width 2 mm (t = 1 mm)": Beam(x=[0, 1], half_width=[0.002, 0.002],
+                                                  thickness=0.001),
+               "half-width 0.5 m": Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.01),
+               "100:1 waist over 1 % of the span": cases["100:1 waist over 1 % of the span"],
+               "100:1 step over 1 % of the span": cases["100:1 step over 1 % of the span"]}
+    for name, b in extreme.items():
+        d = bending_frequencies(b, "plate", modes=5).omega
+        f = bending_frequencies(b, "plate", modes=5, **PLATE_REFERENCE).omega
+        print(f"  {name:34s} {np.abs(d / f - 1).max():.1e}")
     print()
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer beams")
+    ap.add_argument("--validation", action="store_true", help="the validation section only")
     args = ap.parse_args(argv)
+    if args.validation:
+        validation()
+        return
     n_beam, n_plate = (20, 4) if args.quick else (100, 12)
     n_conv_beam, n_conv_plate = (8, 3) if args.quick else (30, 8)
     speed(n_beam, n_plate)

@@ -83,6 +83,14 @@ def test_stdin(beam_file):
     ([], {"x": [0, 1], "half_width": [0.1, 0.0], "thickness": 0.01}, "half_width"),
     ([], {"x": [0, 1], "half_width": [0.1, 0.1], "thickness": 0.01, "colour": 1}, "colour"),
     ([], "{not json", "JSON"),
+    (["--model", "beam"], {"x": [0, 1], "half_width": [0.5, 0.5], "thickness": 100},
+     "thickness: must be at most 0.2 L"),
+    (["--model", "analytic"], {"x": [0, 1], "half_width": [0.5, 0.5], "thickness": 100},
+     "thickness: must be at most 0.2 L"),
+    (["--model", "beam"], {"x": [0, 1e-9], "half_width": [0.5, 0.5], "thickness": 1e-11},
+     "half_width: model 'beam' needs a full width 2 max(half_width) of at most 10 L"),
+    (["--model", "plate"], {"x": [0, 1], "half_width": [0.002, 0.002], "thickness": 0.003},
+     "thickness: the plate model needs a thickness of at most 0.5 x"),
 ])
 def test_bad_input_is_one_line_and_exit_2(beam_file, args, data, needle):
     proc = subprocess.run([sys.executable, "-m", "prbdm.cli", "truth", beam_file(data), *args],

@@ -111,6 +111,35 @@ def test_degenerate_beam_is_a_clear_error():
         bending_frequencies(WAIST, "beam", selection="section")
 
 
+@pytest.mark.parametrize("model", ["beam", "analytic"])
+@pytest.mark.parametrize("beam, field, needle", [
+    (Beam(x=[0, 1.0], half_width=[0.5, 0.5], thickness=100.0), "thickness", "at most 0.2 L"),
+    (Beam(x=[0, 1.0], half_width=[0.5, 0.5], thickness=0.21), "thickness", "at most 0.2 L"),
+    (Beam(x=[0, 1e-9], half_width=[0.5, 0.5], thickness=1e-11), "half_width", "at most 10 L"),
+    (Beam(x=[0, 0.1], half_width=[0.51, 0.51], thickness=0.001), "half_width", "at most 10 L"),
+], ids=["100m-thick", "t=0.21L", "1nm-long", "b=10.2L"])
+def test_beams_outside_thin_beam_theory_are_refused(model, beam, field, needle):
+    """A 100 m thick, 1 m long panel or a 1 nm long, 1 m wide one is no Euler-Bernoulli beam."""
+    with pytest.raises(BadInput, match=field) as exc:
+        bending_frequencies(beam, model)
+    assert needle in str(exc.value)
+
+
+def test_limits_of_thin_theory_refuse_no_random_beam():
+    from prbdm.truth import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,
+                             MAX_THICKNESS_RATIO, _check_beam)
+    for i in range(3000):
+        b = random_beam(0, i)
+        _check_beam("beam", b)
+        assert b.thickness / b.length <= 0.25 * MAX_THICKNESS_RATIO
+        assert 2 * b.half_width.max() / b.length <= 0.1 * MAX_BEAM_WIDTH_RATIO
+        # (the plate's separate width-ratio limit 1e4 does refuse a few random beams)
+        assert b.thickness / (2 * b.half_width.max()) < 0.25 * MAX_PLATE_THICKNESS_RATIO
+    # just inside the limits still solves
+    ok = Beam(x=[0, 1.0], half_width=[5.0, 5.0], thickness=0.2)
+    assert np.all(bending_frequencies(ok, "beam").omega > 0)
+
+
 def test_result_contract():
     res = bending_frequencies(random_beam(0, 1), "beam", modes=4)
     assert res.model == "beam" and res.omega.shape == (4,) and res.omega.dtype == np.float64

@@ -40,6 +40,17 @@ MAX_WIDTH_RATIO = 1e6
 #: within 1.3e-4 of its slender-beam limit); at 1e5 its first frequency came out 3.5x (mapped
 #: mesh) or 2.3x (Delaunay) too high, so it is refused beyond instead of answering wrongly
 MAX_PLATE_WIDTH_RATIO = 1e4
+#: thin theory only (Euler-Bernoulli beam, Kirchhoff plate: no shear, no rotary inertia): a beam
+#: thicker than this fraction of its length is refused, all models. The paper's random generator
+#: (``prbdm.geometry.random_beam``) stays at or below 0.05 (t <= 50 mm, L = 1 m)
+MAX_THICKNESS_RATIO = 0.2
+#: ``beam`` and ``analytic``: largest full width over length, ``2 max(half_width) / L``. Beyond it
+#: the panel is a plate clamped along its long edge, not a beam (the same bound as the plate
+#: model's half-width <= 5 L); random beams reach at most 1 (half-width <= 0.5 m, L = 1 m)
+MAX_BEAM_WIDTH_RATIO = 10.0
+#: ``plate``: largest thickness over full width, ``t / (2 max(half_width))``; a panel thicker
+#: than half its widest chord is no thin plate. Random beams: at most 0.11 in 20 000 (seed 0)
+MAX_PLATE_THICKNESS_RATIO = 0.5
 
 
 def _check_modes(model, modes):
@@ -62,6 +73,17 @@ def _check_beam(model, beam):
                        f"accepts at most {MAX_WIDTH_RATIO:.0e}, beyond which the planform "
                        "degenerates into disconnected pieces")
     L = beam.length
+    t_ratio = beam.thickness / L
+    if not t_ratio <= MAX_THICKNESS_RATIO:
+        raise BadInput(f"thickness: must be at most {MAX_THICKNESS_RATIO:g} L for thin-beam and "
+                       f"thin-plate theory; this beam is {t_ratio:.3g} L thick "
+                       f"(t = {beam.thickness:.6g} m, L = {L:.6g} m)")
+    if model in ("beam", "analytic"):
+        b_ratio = float(2 * w.max() / L)
+        if not b_ratio <= MAX_BEAM_WIDTH_RATIO:
+            raise BadInput(f"half_width: model {model!r} needs a full width 2 max(half_width) of "
+                           f"at most {MAX_BEAM_WIDTH_RATIO:g} L (beyond it the panel is a plate, "
+                           f"not a beam); this planform is {b_ratio:.3g} L wide (L = {L:.6g} m)")
     if model == "plate" and ratio > MAX_PLATE_WIDTH_RATIO:
         raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model 'plate' "
                        f"accepts at most {MAX_PLATE_WIDTH_RATIO:.0e} (use --model beam)")
@@ -70,6 +92,11 @@ def _check_beam(model, beam):
         if aspect > 5.0:
             raise BadInput(f"half_width: the plate model needs a half-width of at most 5 L; "
                            f"this planform is {aspect:.3g} L wide (L = {L:.6g} m)")
+        tb = float(beam.thickness / (2 * w.max()))
+        if not tb <= MAX_PLATE_THICKNESS_RATIO:
+            raise BadInput(f"thickness: the plate model needs a thickness of at most "
+                           f"{MAX_PLATE_THICKNESS_RATIO:g} x the full width 2 max(half_width) for "
+                           f"thin-plate theory; this panel's is {tb:.3g} x (use --model beam)")
 
 
 def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
@@ -96,7 +123,9 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     Raises
     ------
     prbdm.errors.BadInput for an unknown model, invalid ``modes``, ``analytic`` on a
-    non-uniform beam, or a beam too degenerate to be solved reliably.
+    non-uniform beam, a beam outside thin theory (thickness > ``MAX_THICKNESS_RATIO`` L; beam and
+    analytic: full width > ``MAX_BEAM_WIDTH_RATIO`` L; plate: thickness >
+    ``MAX_PLATE_THICKNESS_RATIO`` x full width), or a beam too degenerate to be solved reliably.
     """
     if model not in MODELS:
         raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
