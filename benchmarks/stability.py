@@ -41,7 +41,7 @@ def main(argv=None) -> int:
         for r in rows:
             for c in r["checks"]:
                 v = "–" if c["value"] is None else f"{c['value']:.3g}"
-                t = "–" if c["tol"] is None else f"{c['tol']:.0e}"
+                t = "–" if c["tol"] is None else f"{c['tol']:.2g}"
                 print(f"| {r['name']} | {stability._cell(c['check'])} | {v} | {t} | "
                       f"{'yes' if c['passed'] else '**NO**'} |")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")

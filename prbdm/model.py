@@ -18,10 +18,21 @@ which a symmetric eigensolver returns to full relative accuracy. Only eigenvalue
 differentiated (``eigvalsh``): their gradient ``v^T dA v`` has no ``1 / (mu_i - mu_j)`` factor, so
 it stays finite when eigenvalues coincide. Because K scales with one SCF per pose,
 ``lam(k_i) = k_i * lam(1)``: one eigen-solve per pose serves every k.
+
+Precision. The solver's absolute error in ``mu`` is about ``eps * mu_max``, so ``lam_i`` is good
+to about ``eps * lam_i / lam_1``: mode 1 to round-off, the highest mode to ``eps * cond`` with
+``cond = lam_max / lam_min``. In float64 that is harmless (cond <= ~1e8 for n <= 39); in float32
+(eps 1.2e-7) the highest mode of a 4R model is already a few % off. So every solve checks, on the
+detached result and with one reduction: a short float type (float32, float16, bfloat16) with
+``PRECISION_FACTOR * eps * cond > PRECISION_RTOL`` (4 eps cond > 1e-3), or any eigenvalue not finite or not positive (any dtype), raises
+a :class:`PrecisionWarning` naming the dtype and the condition estimate. Autograd and batching
+are untouched (the check only reads the values).
 """
 from __future__ import annotations
 
 import math
+import sys
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,10 +44,21 @@ from .sections import span_integrals
 
 __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stiffness",
            "paper_poses", "make_poses", "eigenvalues", "eigenvalues_unit_k", "loss_percent",
-           "frequency_errors", "uniform_gamma", "GAMMA_MIN", "GAMMA_MAX", "LAWS"]
+           "frequency_errors", "uniform_gamma", "GAMMA_MIN", "GAMMA_MAX", "LAWS",
+           "PrecisionWarning", "PRECISION_RTOL", "PRECISION_FACTOR"]
 
 GAMMA_MIN, GAMMA_MAX = 0.025, 0.975   # Eq. 13 bounds on each link-length fraction
 LAWS = ("beam", "paper")
+#: a short float type warns when its estimated relative error of the highest eigenvalue,
+#: PRECISION_FACTOR * eps * lam_max / lam_min, exceeds PRECISION_RTOL. The factor is measured:
+#: float32 errors of the highest mode reach 2.4-5.8 eps lam_n / lam_1 (docs/stability.md)
+PRECISION_RTOL = 1e-3
+PRECISION_FACTOR = 4.0
+
+
+class PrecisionWarning(UserWarning):
+    """Eigenvalues computed in a float type too short for the problem's conditioning, or not
+    finite / not positive: some of the returned numbers are not to be trusted (use float64)."""
 
 
 # ----------------------------------------------------------------------------- beams as tensors
@@ -253,7 +275,43 @@ def eigenvalues_unit_k(beam: BeamTensors, gamma: torch.Tensor, poses: torch.Tens
     d = torch.rsqrt(s)[..., None, :]                                    # D = K^-1/2
     A = d[..., :, None] * M * d[..., None, :]
     mu = torch.linalg.eigvalsh(A)                                       # ascending
+    _check_precision(mu)
     return torch.flip(1.0 / mu, [-1])
+
+
+def _check_precision(mu: torch.Tensor) -> None:
+    """Warn (:class:`PrecisionWarning`) when the eigenvalues ``mu`` of A (..., n), ascending, are
+    not all finite and positive, or, in a short float type, when ``PRECISION_FACTOR * eps * mu_max
+    / mu_min`` (the estimated relative error of the highest eigenvalue lam = 1/mu) exceeds
+    ``PRECISION_RTOL``.
+    Reads detached values only; one host sync per call."""
+    if mu.numel() == 0:
+        return
+    with torch.no_grad():
+        m = mu.detach()
+        eps = torch.finfo(m.dtype).eps
+        short = eps > 1e-10
+        sane = torch.isfinite(m).all() & (m > 0).all()
+        if short:
+            cond = (m[..., -1] / m[..., 0]).abs().nan_to_num(math.inf).max()
+            flags = torch.stack([sane.to(m.dtype), cond.to(m.dtype)]).double().cpu()
+            sane, cond = bool(flags[0]), float(flags[1])
+        else:
+            sane, cond = bool(sane), None
+    if sane and (cond is None or PRECISION_FACTOR * eps * cond <= PRECISION_RTOL):
+        return
+    dt = str(m.dtype).replace("torch.", "")
+    what = ("some eigenvalues are not finite or not positive" if not sane else
+            f"the highest eigenvalues may be off by up to ~{PRECISION_FACTOR * eps * cond:.1e} "
+            f"relative ({PRECISION_FACTOR:g} eps * cond; lam_i is good to about "
+            f"{PRECISION_FACTOR:g} eps * lam_i / lam_1)")
+    cond_txt = "" if cond is None else f", condition estimate lam_max / lam_min = {cond:.2e}"
+    level, frame = 1, sys._getframe(0)           # point at the first caller outside this module
+    while frame is not None and frame.f_code.co_filename == __file__:
+        frame, level = frame.f_back, level + 1
+    warnings.warn(f"PRBDM eigenvalues in {dt}{cond_txt}: {what}; use float64 "
+                  "(e.g. gamma.double(), BeamTensors.from_beams(..., dtype=torch.float64))",
+                  PrecisionWarning, stacklevel=level)
 
 
 def _expand_links(links: Links) -> Links:

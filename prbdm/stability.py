@@ -473,49 +473,95 @@ def case_degenerate(row: _Row, offset: float):
 def case_float32(row: _Row, n: int, beams: int):
     """float32 against float64 on random beams and layouts: a symmetric eigensolver's error is
     ~eps ||A|| = eps mu_max, so the relative error of lam_i = 1/mu_i is ~eps lam_i / lam_1:
-    mode 1 is good to a few eps32 whatever n, the highest mode loses cond(A) = lam_n/lam_1."""
+    mode 1 is good to a few eps32 whatever n, the highest mode loses cond(A) = lam_n/lam_1.
+    The model warns (:class:`prbdm.model.PrecisionWarning`) when 4 eps32 cond > PRECISION_RTOL or a
+    result is not finite and positive: every unwarned float32 result must then be within
+    PRECISION_RTOL of float64 in every mode (never a silent wrong number), and the warning must
+    come where the float64 conditioning says it should (2x margin either side)."""
     torch = _torch()
+    from . import model
+    tol = model.PRECISION_RTOL
     rng = np.random.default_rng([7, n])
-    worst_ratio = err1 = errn = 0.0
-    sane = True
+    worst_ratio = err1 = errn = silent = 0.0
+    sane = f64_quiet = warn_ok = unwarned_sane = True
+    calls = warned = 0
     for i in range(beams):
         beam = random_beam(7, i)
         g = 0.025 + (1 - 0.025 * (n + 1)) * rng.dirichlet(np.ones(n + 1))
         for poses in ("paper", "linear"):
-            l64 = _prbdm(row, beam, g, poses)
-            l32 = _prbdm(_Row(), beam, g, poses, dtype=torch.float32)
-            sane &= _sane(l32)
+            with warnings.catch_warnings(record=True) as w64:
+                warnings.simplefilter("always", model.PrecisionWarning)
+                l64 = _prbdm(row, beam, g, poses)
+            with warnings.catch_warnings(record=True) as w32:
+                warnings.simplefilter("always", model.PrecisionWarning)
+                l32 = _prbdm(_Row(), beam, g, poses, dtype=torch.float32)
+            f64_quiet &= not any(issubclass(w.category, model.PrecisionWarning) for w in w64)
+            ws = [str(w.message) for w in w32 if issubclass(w.category, model.PrecisionWarning)]
+            hit = bool(ws) and "float32" in ws[0] and "float64" in ws[0]
+            calls, warned = calls + 1, warned + hit
+            ok32 = _sane(l32)
+            sane &= ok32
             err = np.abs(l32 / l64 - 1)
+            est = model.PRECISION_FACTOR * EPS32 * float((l64[..., -1] / l64[..., 0]).max())
+            if est > 2 * tol:
+                warn_ok &= hit
+            elif est < tol / 2:
+                warn_ok &= not hit
+            if not hit:
+                unwarned_sane &= ok32
+                silent = max(silent, float(np.nan_to_num(err, nan=np.inf).max()))
             ratio = l64 / l64[..., :1]
-            worst_ratio = max(worst_ratio, float((err / (EPS32 * ratio)).max()))
+            if ok32:
+                worst_ratio = max(worst_ratio, float((err / (EPS32 * ratio)).max()))
             err1, errn = max(err1, float(err[..., 0].max())), max(errn, float(err[..., -1].max()))
-    trusted = EPS32 * row.cond["A"] < 0.1
     row.extra.update(f32_err1=err1, f32_errn=errn, f32_ratio=worst_ratio, f32_sane=sane,
-                     f32_condA=row.cond["A"])
-    if trusted:
-        row.check("float32 finite, sorted, positive", None, ok=sane)
+                     f32_condA=row.cond["A"], f32_warned=warned, f32_calls=calls)
+    row.check("float64: no PrecisionWarning", None, ok=f64_quiet)
+    row.check(f"PrecisionWarning iff {model.PRECISION_FACTOR:g} eps32 cond > {tol:g} (2x margin), "
+              "naming float32/float64",
+              None, ok=warn_ok)
+    row.check("unwarned float32: finite, sorted, positive", None, ok=unwarned_sane)
+    row.check(f"unwarned float32: worst rel. error of any mode (never silent beyond {tol:g})",
+              silent, tol)
     row.check("float32 mode-1 rel. error", err1, 1e-5, key=True)
-    row.check("float32 error / (eps32 lam_i/lam_1), all modes", worst_ratio, 50.0)
-    row.note = (f"float32 rel. error: mode 1 {err1:.1e}, mode n {errn:.1e}" +
-                ("" if trusted else f"; eps32 cond(A) = {EPS32 * row.cond['A']:.1f}: highest "
-                 f"eigenvalues {'still' if sane else 'NOT'} finite, sorted and positive"))
+    row.check("float32 error / (eps32 lam_i/lam_1), all modes (finite results)", worst_ratio, 50.0)
+    row.note = (f"float32 rel. error: mode 1 {err1:.1e}, mode n {errn:.1e}; PrecisionWarning on "
+                f"{warned} of {calls} solves" +
+                ("" if sane else "; highest eigenvalues NOT all finite, sorted and positive "
+                 "(warned)"))
 
 
-def case_fit_bounds(row: _Row, corners, compare_best: bool):
+def _start_loss(beam: Beam, omega_truth, gamma) -> float:
+    """The fit's loss [%] at ``gamma`` with its least-squares SCFs (paper poses, r = n modes)."""
+    torch = _torch()
+    from . import model
+    bt = model.BeamTensors.from_beams(beam)
+    g = torch.tensor(np.asarray(gamma, dtype=np.float64))
+    n = len(gamma) - 1
+    mu = model.eigenvalues_unit_k(bt, g, model.paper_poses(n)) * bt.lambda0
+    lam = torch.as_tensor(np.asarray(omega_truth[:n], dtype=np.float64)) ** 2
+    k = (mu * lam).sum(-1) / (mu * mu).sum(-1)
+    return float(model.loss_percent(k[:, None] * mu, lam))
+
+
+def case_fit_bounds(row: _Row, corners):
     """Fits started on the gamma bounds (a corner of the bounded simplex: every link but one at
-    0.025) must leave the bound and converge to a finite, feasible optimum."""
+    0.025) must leave the bound and converge to a finite, feasible *local* optimum. A single start
+    is a local method: its loss against the default multistart fit's is reported, not bounded
+    (1.0 to 3.7 times on this beam; the multistart fit is what finds the global one)."""
     from .fit import fit_prbdm
     from .model import GAMMA_MAX, GAMMA_MIN
     from .truth.analytic import beam_omega_scale
     beam = random_beam(0, 3)
     n = 4
     truth = _truth(row, beam) * beam_omega_scale(beam)
-    best = fit_prbdm(beam, truth, n).loss_percent if compare_best else None
+    multi = fit_prbdm(beam, truth, n)
+    best = multi.loss_percent
     ratios = []
     for j in corners:
         g0 = np.full(n + 1, GAMMA_MIN)
         g0[j] = 1 - n * GAMMA_MIN
-        start = fit_prbdm(beam, truth, n, init_gamma=[g0], max_iter=1)
+        start = _start_loss(beam, truth, g0)
         f = fit_prbdm(beam, truth, n, init_gamma=[g0])
         again = fit_prbdm(beam, truth, n, init_gamma=[f.gamma])
         g = f.gamma
@@ -525,15 +571,18 @@ def case_fit_bounds(row: _Row, corners, compare_best: bool):
                           and g.max() <= GAMMA_MAX + 1e-12 and math.isfinite(f.loss_percent)))
         row.check(f"corner {j}: left the start (-max change of gamma)", -float(np.abs(g - g0).max()),
                   -1e-3)
-        row.check(f"corner {j}: loss / loss after 1 iteration", f.loss_percent / start.loss_percent,
-                  0.999)
+        row.check(f"corner {j}: loss / loss at the start (best k)", f.loss_percent / start, 0.999)
         row.check(f"corner {j}: converged (re-fit gains < 2 %)",
-                  1 - again.loss_percent / f.loss_percent, 0.02, key=j == corners[-1])
-        if best:
-            ratios.append(f.loss_percent / best)
+                  1 - again.loss_percent / f.loss_percent, 0.02)
+        ratios.append(f.loss_percent / best)
+        row.check(f"corner {j}: loss / {multi.n_starts}-start loss (local optimum, reported)",
+                  ratios[-1], None, ok=math.isfinite(ratios[-1]))
         row.grads(True)
-    row.note = ("loss / multistart best: " + ", ".join(f"{r:.2f}" for r in ratios)
-                if ratios else "")
+    row.check(f"worst loss / {multi.n_starts}-start loss (local optimum from the bound, reported)",
+              max(ratios), None, ok=True, key=True)
+    row.note = (f"local optima from the bounds, reported: loss {multi.n_starts}-start "
+                f"{best:.3g} %, from corner(s) " + ", ".join(
+                    f"{j}: {r * best:.3g} % ({r:.2f}x)" for j, r in zip(corners, ratios)))
 
 
 def case_network(row: _Row, beam: Beam, expect_ood: bool):
@@ -608,7 +657,7 @@ def _cases() -> list[Case]:
     for w in (0.002, 0.5):
         c.append(Case(f"half-width {w * 1e3:g} mm", "w (uniform steel panel, t = 20 mm)",
                       case_scaling, dict(beam=uniform_panel(half_width=w), ref=ref_u,
-                                         analytic=True), quick=w == 0.002))
+                                         analytic=True)))
     c.append(Case("combined: 2 mm wide, 1 mm thick elastomer, L = 3 m", "everything at once",
                   case_scaling, dict(beam=uniform_panel(0.002, 0.001, ELASTOMER, 3.0), ref=ref_u,
                                      analytic=True), quick=False))
@@ -616,8 +665,7 @@ def _cases() -> list[Case]:
     for name, mat in (("steel", STEEL), ("aluminium", ALUMINIUM), ("titanium", TITANIUM),
                       ("elastomer 5 MPa", ELASTOMER)):
         c.append(Case(f"material: {name}", f"E = {mat.E:.3g} Pa, rho = {mat.rho:g} (tapered panel)",
-                      case_scaling, dict(beam=tapered_panel(mat), ref=ref_t, analytic=False),
-                      quick=name in ("steel", "elastomer 5 MPa")))
+                      case_scaling, dict(beam=tapered_panel(mat), ref=ref_t, analytic=False)))
     c.append(Case("width 100:1 linear taper", "w 0.5 m -> 5 mm", case_width,
                   dict(beam=Beam(x=[0, 1], half_width=[0.5, 0.005], thickness=0.02),
                        order=True, shoot_modes=2)))
@@ -648,15 +696,15 @@ def _cases() -> list[Case]:
     for off in (1e-2, 1e-5, 1e-8, 0.0):
         c.append(Case(f"near-equal eigenvalues, offset {off:g}",
                       "2R pose offset from an exact crossing", case_degenerate,
-                      dict(offset=off), quick=off in (1e-5, 0.0)))
+                      dict(offset=off)))
     for n in (1, 2, 4, 8, 12, 20, 39):
         c.append(Case(f"float32, n = {n}", "dtype (8 random beams, paper + linear poses)",
                       case_float32, dict(n=n, beams=8),
-                      quick=n in (4, 20)))
-    c.append(Case("fit from gamma corners 0, 4", "init_gamma on the bounds (4R, random beam)",
-                  case_fit_bounds, dict(corners=[0, 4], compare_best=False)))
-    c.append(Case("fit from all gamma corners", "init_gamma on the bounds (4R, random beam)",
-                  case_fit_bounds, dict(corners=[0, 1, 2, 3, 4], compare_best=True), quick=False))
+                      quick=n in (2, 4, 20, 39)))
+    varied = "init_gamma on the bounds (4R, random beam); vs the multistart fit"
+    c.append(Case("fit from gamma corners 0, 4", varied, case_fit_bounds, dict(corners=[0, 4])))
+    c.append(Case("fit from all gamma corners", varied, case_fit_bounds,
+                  dict(corners=[0, 1, 2, 3, 4]), quick=False))
     c.append(Case("network: in-range beam", "random_beam(0, 5000), unseen", case_network,
                   dict(beam=random_beam(0, 5000), expect_ood=False)))
     c.append(Case("network: needle tip 1e5:1", "shape", case_network,
@@ -756,6 +804,12 @@ What keeps the conditioning in check (each verified in the code named):
   (`prbdm/sections.py`): short links far from the root and near-uniform links keep their digits;
   `∫ dx / w` of a 1e11:1 needle's tip is within 2.4e-7 of its closed form (the rounding of the
   tip width itself, ~eps·ratio/log(ratio), sets that floor).
+- **Precision guard** (`model._check_precision`, on every eigen-solve): a short float type
+  (float32, float16, bfloat16) with `4 eps · lambda_max/lambda_min > 1e-3`
+  (`model.PRECISION_FACTOR`, `PRECISION_RTOL`), or any eigenvalue not finite or not positive (any dtype), raises a
+  `model.PrecisionWarning` naming the dtype, the condition estimate and float64; one reduction on
+  the detached values, so autograd and batching are untouched (rows "float32": no unwarned
+  float32 result is off by more than 1e-3 in any mode).
 - **Width-ratio limits** (`prbdm/truth/__init__.py`: 1e6 for the truth; `prbdm/geometry.py`
   `MAX_PRBDM_WIDTH_RATIO`: 1e12 for the PRBDM and the network): beyond them a `BadInput` naming
   `half_width`, rather than a failed eigen-solve.
@@ -791,7 +845,7 @@ def format_markdown(rows: list[dict]) -> str:
         fem = ("–" if r["cond_fem"] is None
                else f"{r['cond_fem_raw']:.0e} / {r['cond_fem']:.0e}")
         out.append(f"| {r['name']} | {r['varied']} | {checks} | {_g(r['accuracy'])} | "
-                   f"{_g(r['tolerance'], '{:.0e}')} | {_cell(r['accuracy_check'] or '–')} | "
+                   f"{_g(r['tolerance'])} | {_cell(r['accuracy_check'] or '–')} | "
                    f"{_g(r['cond_M'])} | {_g(r['cond_K'])} | {_g(r['cond_A'])} | {fem} | "
                    f"{_g(r['grad_finite'])} | {r['time_s']:.2f} |")
     out.append("")
@@ -807,15 +861,17 @@ def format_markdown(rows: list[dict]) -> str:
     f32 = [r for r in rows if "f32_err1" in r.get("extra", {})]
     if f32:
         out += ["float32 against float64 (8 random beams, a random gamma each, paper and linear "
-                "poses; relative eigenvalue errors, worst case):", "",
+                "poses; relative eigenvalue errors, worst case; *PrecisionWarning*: solves that "
+                "warned, out of all):", "",
                 "| n | cond A | eps32 · cond A | mode 1 | highest mode | max err / (eps32 λ_i/λ_1) "
-                "| finite, sorted, positive |", "|---|---|---|---|---|---|---|"]
+                "| finite, sorted, positive | PrecisionWarning |", "|---|---|---|---|---|---|---|---|"]
         for r in f32:
             e = r["extra"]
             out.append(f"| {r['name'].split('= ')[-1]} | {e['f32_condA']:.1e} | "
                        f"{EPS32 * e['f32_condA']:.2g} | {e['f32_err1']:.1e} | "
                        f"{e['f32_errn']:.1e} | {e['f32_ratio']:.1f} | "
-                       f"{'yes' if e['f32_sane'] else '**no**'} |")
+                       f"{'yes' if e['f32_sane'] else '**no**'} | "
+                       f"{e['f32_warned']} of {e['f32_calls']} |")
         out.append("")
     out.append(TRICKS)
     return "\n".join(out)
