@@ -219,6 +219,14 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
         idx = torch.nonzero(active).squeeze(-1)
         if idx.numel() == 0:
             break
+        # a row whose gradient is not finite (an exact fit: the gradient of a norm at zero)
+        # stops where it is; the Gauss-Newton polish takes exact fits to round-off
+        lost = ~torch.isfinite(g[idx]).all(-1) | ~torch.isfinite(Hinv[idx]).all(-1).all(-1)
+        if lost.any():
+            active[idx[lost]] = False
+            idx = idx[~lost]
+            if idx.numel() == 0:
+                break
         zi, fi, gi = z[idx], f[idx], g[idx]
         p = -(Hinv[idx] @ gi[..., None]).squeeze(-1)
         p = p - (p * zi).sum(-1, keepdim=True) * zi                      # tangent to the sphere

@@ -113,6 +113,16 @@ def test_linear_pose_set_matches_the_fem_truth_to_round_off(n, law):
     assert r.freq_error.max() < 1e-9
 
 
+def test_exact_fit_does_not_break_the_optimiser():
+    """A start that fits exactly (linear poses, r = n) has a non-finite gradient (a norm at
+    zero); it once sent NaN steps into the batched line search and eigvalsh raised."""
+    beam = Beam(x=[0, 0.4, 1], half_width=[0.2, 0.1, 0.05], thickness=0.02)
+    om = bending_frequencies(beam, model="beam", modes=5).omega
+    fit = fit_prbdm(beam, om, joints=4, poses="linear", starts=32)
+    assert math.isfinite(fit.loss_percent) and fit.loss_percent < 1e-8
+    assert np.all(np.isfinite(fit.gamma)) and abs(fit.gamma.sum() - 1) < 1e-12
+
+
 def test_fits_are_reproducible_with_a_seed():
     beam = random_beam(6, 0)
     om = proxy_truth(beam)
