@@ -376,9 +376,12 @@ def test_threaded_prediction_equals_one_thread(monkeypatch):
         many = sur.predict(beams, warn=False, threads=threads)
         for key in ("gamma", "k", "omega", "omega_truth", "log_omega_hat"):
             np.testing.assert_array_equal(getattr(many, key), getattr(one, key))
-    monkeypatch.setattr(sg, "PIECE", 10 ** 6)    # one piece: the same numbers again
+    # one piece: the same numbers to the float32 MLP's round-off, which depends on the shape
+    # of its matrix products (hence pieces that do not depend on the thread count)
+    monkeypatch.setattr(sg, "PIECE", 10 ** 6)
     whole = sur.predict(beams, warn=False, threads=2)
-    np.testing.assert_allclose(whole.k, one.k, rtol=1e-9)
+    np.testing.assert_allclose(whole.k, one.k, rtol=1e-5)
+    np.testing.assert_allclose(whole.omega_truth, one.omega_truth, rtol=1e-6)
     monkeypatch.setenv("PRBDM_THREADS", "zero")
     with pytest.raises(BadInput, match="PRBDM_THREADS"):
         sg.default_threads()
