@@ -170,34 +170,53 @@ def _inv_logmean(lo, hi):
     return np.where(small, series, exact) / lo
 
 
-def _simpson(h, xa, xb, wa, wb):
+def _simpson(h, xa, xb, wa, wb, parts=(0, 1, 2, 3)):
     """Integrals over [xa, xb] (length h) of 2 w, 2 x w, 2 x^2 w (Simpson: exact for the cubic)
-    and of 1 / w, for w linear from wa to wb."""
-    xm, wm = (xa + xb) / 2, (wa + wb) / 2
-    i0 = h * (wa + wb)
-    i1 = h / 3 * (xa * wa + 4 * xm * wm + xb * wb)
-    i2 = h / 3 * (xa * xa * wa + 4 * xm * xm * wm + xb * xb * wb)
-    ic = h * _inv_logmean(wa, wb)
-    return i0, i1, i2, ic
+    and of 1 / w, for w linear from wa to wb: the ones named by ``parts`` (0..3), in order."""
+    out = []
+    if 1 in parts or 2 in parts:
+        xm, wm = (xa + xb) / 2, (wa + wb) / 2
+    for p in parts:
+        if p == 0:
+            out.append(h * (wa + wb))
+        elif p == 1:
+            out.append(h / 3 * (xa * wa + 4 * xm * wm + xb * wb))
+        elif p == 2:
+            out.append(h / 3 * (xa * xa * wa + 4 * xm * xm * wm + xb * xb * wb))
+        else:
+            out.append(h * _inv_logmean(wa, wb))
+    return out
 
 
-def _cumulative(x, w, q):
-    """Integrals from 0 to q of 2 w, 2 x w, 2 x^2 w and 1 / w: x, w (B, S), q (B, Q) in [0, 1].
+def _segments(x, q):
+    """Index k (B, Q) of the planform segment [x_k, x_k+1] that holds each q: the number of
+    stations x_0..x_{S-2} at or below q, less one, clipped to [0, S-2]. One sorted search over
+    the rows laid end to end (each row shifted by twice its number; x, q lie in [0, 1])."""
+    B, S = x.shape
+    shift = 2.0 * np.arange(B)[:, None]
+    flat = (x[:, :-1] + shift).ravel()
+    pos = np.searchsorted(flat, (q + shift).ravel(), side="right").reshape(q.shape)
+    return np.clip(pos - (S - 1) * np.arange(B)[:, None] - 1, 0, S - 2)
 
-    Cost O(B (S + Q) + B Q S comparisons), against O(B Q S) arithmetic for span-by-span
-    clipping: this is what makes the batched prediction fast."""
+
+def _cumulative(x, w, q, parts=(0, 1, 2, 3)):
+    """Integrals from 0 to q of 2 w, 2 x w, 2 x^2 w and 1 / w (``parts`` 0..3, the ones asked
+    for, in order): x, w (B, S), q (B, Q) in [0, 1].
+
+    Cost O(B (S + Q) log(B S)): whole segments by prefix sums, the part of q's own segment by
+    Simpson's rule; this is what makes the batched prediction fast."""
     S = x.shape[-1]
     h = np.diff(x, axis=-1)
-    parts = _simpson(h, x[:, :-1], x[:, 1:], w[:, :-1], w[:, 1:])
-    cums = [np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(p, -1)], -1) for p in parts]
-    k = np.clip((x[:, None, :-1] <= q[:, :, None]).sum(-1) - 1, 0, S - 2)   # segment of q
+    full = _simpson(h, x[:, :-1], x[:, 1:], w[:, :-1], w[:, 1:], parts)
+    cums = [np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(p, -1)], -1) for p in full]
+    k = _segments(x, q)
     xk = np.take_along_axis(x, k, -1)
     wk = np.take_along_axis(w, k, -1)
     hk = np.take_along_axis(h, k, -1)
     wk1 = np.take_along_axis(w[:, 1:], k, -1)
     slope = np.where(hk > 0, (wk1 - wk) / np.where(hk > 0, hk, 1.0), 0.0)
     dq = np.clip(q - xk, 0.0, None)
-    part = _simpson(dq, xk, xk + dq, wk, wk + slope * dq)
+    part = _simpson(dq, xk, xk + dq, wk, wk + slope * dq, parts)
     return [np.take_along_axis(c, k, -1) + p for c, p in zip(cums, part)]
 
 
@@ -226,15 +245,15 @@ def _links(x, w, gamma):
     zero = np.zeros_like(inner[..., :1])
     cuts = np.concatenate([zero, inner, zero + 1.0], axis=-1)          # (B, n+2)
     mids = (cuts[..., 2:-1] + cuts[..., 1:-2]) / 2                      # centres of links 1..n-1
-    F = _cumulative(x, w, np.concatenate([cuts, mids], -1))
-    m0, m1, m2, _ = (f[:, 2:n + 2] - f[:, 1:n + 1] for f in F)          # links 1..n
+    # the mass moments at the cuts, the compliance at the link centres and the free end
+    m0, m1, m2 = (f[:, 1:] - f[:, :-1] for f in _cumulative(x, w, cuts[:, 1:], (0, 1, 2)))
     mid = (cuts[:, 2:] + cuts[:, 1:-1]) / 2
     first = m1 - mid * m0
     second = m2 - 2 * mid * m1 + mid * mid * m0
     # tributary spans: [0, c_1], [c_1, c_2], ..., [c_{n-1}, 1] with c_j the centre of link j
-    fc = F[3]
-    ends = np.concatenate([fc[:, n + 2:], fc[:, n + 1:n + 2]], -1)      # c_1..c_{n-1}, then 1
-    starts = np.concatenate([fc[:, :1], fc[:, n + 2:]], -1)             # 0, then c_1..c_{n-1}
+    (fc,) = _cumulative(x, w, np.concatenate([mids, cuts[:, -1:]], -1), (3,))
+    ends = fc                                                           # c_1..c_{n-1}, then 1
+    starts = np.concatenate([np.zeros_like(fc[:, :1]), fc[:, :-1]], -1)  # 0, then c_1..c_{n-1}
     length = cuts[..., 1:] - cuts[..., :-1]
     lj = length[..., 1:]
     return {"cuts": cuts, "length": length, "mass": m0, "com": lj / 2 + first / m0,

@@ -52,6 +52,8 @@ k_mode = "projection"                # SCFs: 'projection' (least squares against
 hypotheses = 4                       # candidate segmentations per beam; the one whose PRBDM best
                                      # matches the predicted truth frequencies is kept
 wta_eps = 0.05                       # candidates' losses: (1 - eps) * best + eps * mean
+init_gamma = ""                      # start of candidate 0, comma-separated n+1 values (default:
+                                     # the mean fitted label; equal links for a truth-only set)
 batch_size = 128
 lr = 2e-3
 weight_decay = 1e-5
@@ -269,8 +271,15 @@ def make_net():
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
-        g = ((norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3) if labelled
-             else torch.full((n + 1,), 1.0 / (n + 1)))         # no labels: equal links
+        if init_gamma:
+            g0 = torch.tensor([float(v) for v in init_gamma.split(",")])
+            if g0.shape != (n + 1,) or not bool((g0 > sg.GAMMA_MIN).all()):
+                sys.exit(f"train_surrogate: --init_gamma: need {n + 1} values > {sg.GAMMA_MIN}")
+            g = g0 - sg.GAMMA_MIN
+        elif labelled:
+            g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
+        else:
+            g = torch.full((n + 1,), 1.0 / (n + 1))             # no labels: equal links
         # candidates start apart: the mean label, rigid-finite-element-like, a long root link
         # (the two families of fitted optima), then random segmentations
         long_root = torch.full((n + 1,), 0.3 / n)
