@@ -13,6 +13,7 @@ Prints seconds per beam and median loss of each, and the speed ratio.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 
@@ -95,8 +96,8 @@ def main():
 
     ns = min(args.scipy_beams, len(beams))
     sp = [scipy_fit(b, o, n, args.starts, 0) for b, o in zip(beams[:ns], omega[:ns])]
-    t_scipy = np.mean([t for _, t, _ in sp])
-    c_scipy = np.mean([c for _, _, c in sp])
+    t_scipy = np.mean([t for _, t, _ in sp]) if sp else math.nan
+    c_scipy = np.mean([c for _, _, c in sp]) if sp else math.nan
     loss_sp = np.array([l for l, _, _ in sp])
     loss_single = np.array([r.loss_percent for r in singles])
     loss_batch = np.array([r.loss_percent for r in batched])
@@ -108,6 +109,8 @@ def main():
           f"{c_single:10.3f} {np.median(loss_single):14.5f}")
     print(f"{'prbdm fit_many, all beams in one batch':38s} {len(beams):5d} {t_batch:8.3f} "
           f"{c_batch:10.3f} {np.median(loss_batch):14.5f}")
+    if ns == 0:                 # --scipy-beams 0: prbdm's own timings only
+        return
     print(f"{'scipy SLSQP, one start at a time':38s} {ns:5d} {t_scipy:8.3f} "
           f"{c_scipy:10.3f} {np.median(loss_sp):14.5f}")
     print(f"{'prbdm (one at a time) on the scipy beams':38s} {ns:5d} "
