@@ -43,8 +43,8 @@ from .errors import BadInput
 from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, eigenvalues_unit_k,
                     frequency_errors, make_poses, uniform_gamma)
 
-__all__ = ["FitResult", "fit_prbdm", "fit_many", "gamma_from_z", "z_from_gamma",
-           "DEFAULT_STARTS"]
+__all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "gamma_from_z",
+           "z_from_gamma", "DEFAULT_STARTS"]
 
 DEFAULT_STARTS = 64
 #: smallest |z_j| of a start given by ``init_gamma`` (see :func:`fit_many`)
@@ -331,9 +331,10 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     [rad/s], ascending; modes: how many truth modes to map (r = min(joints, modes), default
     joints); starts: per beam (default :func:`default_starts`). ``seed``: one int (every beam
     gets the same start points) or a sequence of B ints, one per beam (beam b then starts where
-    ``fit_prbdm(..., seed=seed[b])`` would). ``init_gamma`` (B, n+1): start every beam from its
-    own gamma instead (e.g. a network's prediction, then a few iterations refine it); ``starts``
-    is then 1. Returns one :class:`FitResult` per beam.
+    ``fit_prbdm(..., seed=seed[b])`` would). ``init_gamma`` (B, n+1) or (B, H, n+1): start every
+    beam from its own gamma(s) instead (e.g. a network's candidates, then a few iterations refine
+    them, see :func:`refine_starts`); ``starts`` is then H. Returns one :class:`FitResult` per
+    beam.
     """
     t0 = time.perf_counter()
     n = _check_int(joints, "joints", 1, int(1 / GAMMA_MIN) - 1)
@@ -373,7 +374,12 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         S = z0.shape[0]
         z = z0.repeat(B, 1)
     else:
-        g0 = torch.as_tensor(np.asarray(init_gamma, dtype=np.float64)).reshape(B, n + 1)
+        g0 = torch.as_tensor(np.asarray(init_gamma, dtype=np.float64))
+        if g0.shape[:1] != (B,) or g0.shape[-1] != n + 1 or g0.ndim not in (2, 3):
+            raise BadInput(f"init_gamma: need shape ({B}, {n + 1}) or ({B}, H, {n + 1}), got "
+                           f"{tuple(g0.shape)}")
+        S = g0.shape[1] if g0.ndim == 3 else 1
+        g0 = g0.reshape(B * S, n + 1)
         if not torch.isfinite(g0).all() or (g0 <= 0).any():
             raise BadInput("init_gamma: must be finite and > 0")
         g0 = (g0 / g0.sum(-1, keepdim=True)).clamp(GAMMA_MIN, GAMMA_MAX)
@@ -382,7 +388,7 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         # at the bound (measured: fits from the simplex corners stopped after 4 iterations at
         # 20-600 times the best loss). Starting z_j at INIT_Z_FLOOR moves gamma by <= 4e-4.
         z = z_from_gamma(g0 / g0.sum(-1, keepdim=True)).clamp_min(INIT_Z_FLOOR)
-        z, S = z / torch.linalg.vector_norm(z, dim=-1, keepdim=True), 1
+        z = z / torch.linalg.vector_norm(z, dim=-1, keepdim=True)
     beam_of_row = torch.arange(B).repeat_interleave(S)
     quorum = quorum or max(3, S // 16)
     quorum = min(quorum, S)
@@ -422,6 +428,19 @@ def _result(beam, bt, bi, z, poses, omega_truth, lam_hat, r, law, S, near, sprea
                      freq_error=fe.numpy(), poses=poses.numpy(), law=law, modes=r, n_starts=S,
                      n_near_best=near, gamma_spread=spread, iterations=iters, time_s=time_s,
                      seed=seed, best_loss_percent=best)
+
+
+def refine_starts(gamma) -> np.ndarray:
+    """Start points for a short refinement: the given segmentations (B, n+1) or (B, H, n+1), e.g.
+    a network's candidates, followed by the fit's two fixed starts (the rigid-finite-element and
+    the equal-link segmentations): (B, H + 2, n+1), for ``fit_many(..., init_gamma=...)``.
+    Measured on held-out beams: the two fixed starts lower the refined loss where every candidate
+    lies in a poorer valley (docs/surrogate.md)."""
+    g = np.asarray(gamma, dtype=np.float64)
+    g = g[:, None, :] if g.ndim == 2 else g
+    n = g.shape[-1] - 1
+    fixed = np.stack([uniform_gamma(n).numpy(), np.full(n + 1, 1.0 / (n + 1))])
+    return np.concatenate([g, np.broadcast_to(fixed, (g.shape[0], 2, n + 1))], axis=1)
 
 
 def fit_prbdm(beam, omega_truth, joints: int, modes: int | None = None, law: str = "beam",

@@ -147,7 +147,7 @@ def run_report(cfg: ReportConfig) -> dict:
     torch.set_num_threads(1)    # small batched problems: one thread is faster on this machine
     from . import classical as cl
     from . import surrogate as sg
-    from .fit import fit_many
+    from .fit import fit_many, refine_starts
     from .model import eigenvalues, uniform_gamma
     from .truth import bending_frequencies
 
@@ -264,25 +264,22 @@ def run_report(cfg: ReportConfig) -> dict:
     add("network", "network", pred.omega, t_net, JOINTS, note=f"{sur.name}, batched",
         single_s=t_net_single, extra={"ood_beams": int(pred.ood.any(1).sum())})
     cand = pred.extra.get("gamma_candidates")
-    if cand is None:
-        cand = pred.gamma[:, None, :]
-    H = cand.shape[1]
-    rows_beams = [b for b in beams for _ in range(H)]
+    starts = refine_starts(pred.gamma if cand is None else cand)
+    H = starts.shape[1]
     t0 = time.perf_counter()
-    res = fit_many(rows_beams, np.repeat(om_beam, H, 0), joints=JOINTS, modes=r, poses=poses,
-                   init_gamma=cand.reshape(B * H, -1), max_iter=REFINE_ITER)
+    best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=starts,
+                    max_iter=REFINE_ITER)
     t_ref = (time.perf_counter() - t0) / B
     ts = []
     for i in range(single):
         t0 = time.perf_counter()
-        fit_many([beams[i]] * H, np.repeat(om_beam[i:i + 1], H, 0), joints=JOINTS, modes=r,
-                 poses=poses, init_gamma=cand[i], max_iter=REFINE_ITER)
+        fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
+                 init_gamma=starts[i:i + 1], max_iter=REFINE_ITER)
         ts.append(time.perf_counter() - t0)
-    best = [min(res[i * H:(i + 1) * H], key=lambda x: x.loss_percent) for i in range(B)]
-    add("refined", f"network + refined ({H} candidates, {REFINE_ITER} it.)",
+    add("refined", f"network + refined ({H} starts, {REFINE_ITER} it.)",
         np.stack([x.omega for x in best]), t_net + t_ref, JOINTS, needs="beam",
-        note="fit_many from each candidate gamma, the best kept; all beams in one batch; "
-             "time = network + refinement",
+        note="fit_many from the network's candidate gammas and the fit's two fixed starts "
+             "(prbdm.fit.refine_starts); all beams in one batch; time = network + refinement",
         single_s=(t_net_single + float(np.mean(ts))) if ts else None)
     add("direct", "network (direct frequencies)", pred.omega_truth[:, :r], t_net, None,
         note="the network's prediction of the beam-truth frequencies (same call as network)",
@@ -321,7 +318,7 @@ def run_report(cfg: ReportConfig) -> dict:
         "checkpoint": {**sur.describe(),
                        "dataset_max_index": sur.metadata.get("dataset", {}).get("max_index"),
                        "dataset_seed": sur.metadata.get("dataset", {}).get("spec", {}).get("seed"),
-                       "candidates": H},
+                       "candidates": sur.hypotheses},
         "plate_failures": plate_fail,
         "methods": methods,
         "scaling": scaling,
@@ -504,7 +501,8 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         f"(dataset max_index {ck['dataset_max_index']}).",
         f"- **Model:** n = {c['joints']} joints, {c['modes']} modes, paper poses "
         f"({', '.join(f'{p:.2f}' for p in c['poses'])} rad), `{c['law']}` law; fits: "
-        f"`fit_many(seed={c['fit_seed']})`; refinement {c['refine_iter']} iterations.",
+        f"`fit_many(seed={c['fit_seed']})`; refinement {c['refine_iter']} iterations from the "
+        f"network's candidates and the fit's two fixed starts.",
         f"- **Machine:** {env['cores']} cores ({env['system']} {env['machine']}), load average "
         f"{env['load_average_start']:.2f} at the start and {env['load_average_end']:.2f} at the "
         f"end (other jobs were running); torch on {env['torch_threads']} thread.",

@@ -11,7 +11,8 @@ from scipy.optimize import minimize_scalar
 
 from prbdm.cli import main
 from prbdm.errors import BadInput
-from prbdm.fit import fit_many, fit_prbdm, gamma_from_z, start_points, z_from_gamma
+from prbdm.fit import (fit_many, fit_prbdm, gamma_from_z, refine_starts, start_points,
+                       z_from_gamma)
 from prbdm.geometry import Beam, random_beam
 from prbdm.truth import bending_frequencies
 from prbdm.model import (GAMMA_MAX, GAMMA_MIN, eigenvalues, loss_percent, make_poses,
@@ -224,3 +225,23 @@ def test_default_fit_is_globally_good():
     long = fit_many(beams, om, joints=4, starts=640, max_iter=1500, seed=99)
     for d, l in zip(default, long):
         assert d.loss_percent <= 1.01 * l.best_loss_percent
+
+
+def test_several_starts_per_beam_and_refine_starts():
+    """init_gamma (B, H, n+1): each beam's own start set, the best kept; refine_starts appends
+    the fit's two fixed starts."""
+    beams = [random_beam(0, i) for i in (1, 2)]
+    om = np.stack([bending_frequencies(b, model="beam", modes=3).omega for b in beams])
+    full = fit_many(beams, om, joints=2, starts=16, seed=0)
+    bad = np.full((2, 3), 1 / 3)                       # equal links: far from both optima
+    starts = np.stack([np.stack([bad[0], f.gamma]) for f in full])       # (2, 2, 3)
+    again = fit_many(beams, om, joints=2, init_gamma=starts, max_iter=5)
+    for a, f in zip(again, full):
+        # a start on a bound is nudged off it (INIT_Z_FLOOR), hence not exactly the same loss
+        assert a.n_starts == 2 and a.best_loss_percent <= f.best_loss_percent * (1 + 1e-4)
+    s = refine_starts(starts)
+    assert s.shape == (2, 4, 3)
+    np.testing.assert_allclose(s[:, 2], np.broadcast_to([0.25, 0.5, 0.25], (2, 3)))
+    np.testing.assert_allclose(s[:, 3], 1 / 3)
+    with pytest.raises(BadInput, match="init_gamma"):
+        fit_many(beams, om, joints=2, init_gamma=np.full((3, 3), 1 / 3))

@@ -36,7 +36,8 @@ data = ""                 # default: the data set path recorded in the checkpoin
 split = "heldout"         # test | new | heldout
 refine_count = 200        # beams refined one at a time (0: skip)
 refine_iter = 20
-refine_candidates = True  # also refine from all of the network's candidate gammas (one batch)
+refine_candidates = True  # also refine from all of the network's candidate gammas and the fit's
+                          # two fixed starts (prbdm.fit.refine_starts), each beam in one fit
 refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
 fit_batch = 1             # beams per fit_many call in the refined and re-fit rows (1: one at
                           # a time; the data sets label in batches of 8): time per beam is the
@@ -142,7 +143,7 @@ if refine_count or refit_count:
     import torch
 
     torch.set_num_threads(threads)
-    from prbdm.fit import fit_many
+    from prbdm.fit import fit_many, refine_starts
 
     poses = sur.poses.tolist()
     law = sur.law
@@ -163,15 +164,14 @@ if refine_count or refit_count:
         lr, tr = np.array(lr), np.array(tr)
         if refine_candidates and "gamma_candidates" in pred.extra:
             lc, tc = [], []
-            H = pred.extra["gamma_candidates"].shape[1]
+            starts = refine_starts(pred.extra["gamma_candidates"])
+            H = starts.shape[1]
             for g in groups:
-                cand = pred.extra["gamma_candidates"][g].reshape(len(g) * H, -1)
                 t0 = time.perf_counter()
-                res = fit_many([beams[i] for i in g for _ in range(H)], np.repeat(omega_t[g], H, 0),
-                               joints=n, modes=r, law=law, poses=poses, init_gamma=cand,
-                               max_iter=refine_iter)
+                res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
+                               poses=poses, init_gamma=starts[g], max_iter=refine_iter)
                 tc += [(time.perf_counter() - t0) / len(g)] * len(g)
-                lc += [min(x.loss_percent for x in res[j * H:(j + 1) * H]) for j in range(len(g))]
+                lc += [x.loss_percent for x in res]
             lc, tc = np.array(lc), np.array(tc)
             rc = lc / loss_fit[pick]
             results["refined_candidates"] = {
@@ -246,7 +246,7 @@ if "refined" in results:
                  f"{rd['time_s_median']:.3f} s"))
 if "refined_candidates" in results:
     rc_ = results["refined_candidates"]
-    rows.append((f"network + refine from {rc_['starts']} candidates ({rc_['max_iter']} it.)",
+    rows.append((f"network + refine from {rc_['starts']} starts ({rc_['max_iter']} it.)",
                  f"{rc_['loss_median']:.4f}", f"{rc_['loss_p95']:.4f}", "",
                  f"{rc_['time_s_median']:.3f} s"))
 w = [max(len(r_[i]) for r_ in rows + [("method", "loss median %", "loss p95 %", "loss mean %",
@@ -264,7 +264,7 @@ if "refined" in results:
           f"fits: {rd['fit_loss_median_same_beams']:.4f} %)")
 if "refined_candidates" in results:
     rc_ = results["refined_candidates"]
-    print(f"refined from the {rc_['starts']} candidates / optimised: median ratio "
+    print(f"refined from {rc_['starts']} starts (candidates + 2 fixed) / optimised: median ratio "
           f"{rc_['ratio_median']:.3f}, p95 {rc_['ratio_p95']:.3f}, within 10 %: "
           f"{rc_['share_within_10pct'] * 100:.1f} % of beams")
 print("\nnetwork's direct truth-frequency prediction, relative error per mode:")

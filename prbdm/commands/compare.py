@@ -6,8 +6,9 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
-- ``refined``: the fit started from the network's gamma alone, ``--refine-iter`` iterations
-  (:func:`prbdm.fit.fit_many` with ``init_gamma``).
+- ``refined``: the fit started from the network's candidate gammas and the fit's two fixed starts
+  (:func:`prbdm.fit.refine_starts`), ``--refine-iter`` iterations (:func:`prbdm.fit.fit_many`
+  with ``init_gamma``).
 
 For each: the loss (SPEC §3, %), the per-mode frequency error (worst over the poses, %) and the
 time (the computation itself; start-up and imports excluded; ``refined`` excludes the network's
@@ -44,7 +45,7 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=positive_int(0), default=0,
                         help="seed of the fit's start points (default 0)")
     parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=20,
-                        help="iterations of the refinement from the network's gamma (default 20)")
+                        help="iterations of the refinement from the network's candidates (default 20)")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
@@ -80,14 +81,15 @@ def run(args) -> int:
         pred = sur.predict(beam, frequencies=True)
         t_net = time.perf_counter() - t0
 
-    from ..fit import fit_many, fit_prbdm
+    from ..fit import fit_many, fit_prbdm, refine_starts
 
     poses = sur.poses.tolist()
     fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
                     starts=args.starts, seed=args.seed)
     t0 = time.perf_counter()
+    starts = refine_starts(pred.extra.get("gamma_candidates", pred.gamma))
     ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
-                   init_gamma=pred.gamma, max_iter=args.refine_iter)[0]
+                   init_gamma=starts, max_iter=args.refine_iter)[0]
     t_ref = time.perf_counter() - t0
 
     def method(gamma, k, omega, t):
