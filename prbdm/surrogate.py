@@ -423,6 +423,13 @@ CHUNK = 2048
 PIECE = 1024
 
 
+def _concatenate_outputs(parts: list) -> dict:
+    """Decoded outputs of consecutive pieces of a batch, joined along the beams (None stays
+    None: those outputs need the geometry, which none of the pieces had)."""
+    return {key: (None if parts[0][key] is None
+                  else np.concatenate([part[key] for part in parts])) for key in parts[0]}
+
+
 def default_threads() -> int:
     """Threads for batched prediction: ``$PRBDM_THREADS`` if set, else the usable cores."""
     env = os.environ.get("PRBDM_THREADS")
@@ -904,9 +911,7 @@ class Surrogate:
             parts = [self.forward(feats[i:i + CHUNK],
                                   None if batch is None else batch.take(slice(i, i + CHUNK)))
                      for i in range(0, feats.shape[0], CHUNK)]
-            return {key: (None if parts[0][key] is None
-                          else np.concatenate([part[key] for part in parts]))
-                    for key in parts[0]}
+            return _concatenate_outputs(parts)
         h = ((feats - self.f_mean) / self.f_std).astype(np.float32)
         for W, b in self.layers[:-1]:
             h = _silu(h @ W.T + b)
@@ -944,7 +949,7 @@ class Surrogate:
                 f"of checkpoint {self.name} in feature(s) {names}; first: {texts[0]}")
 
     def _features_and_outputs(self, batch: BeamBatch, threads: int | None):
-        """features and decoded outputs of a batch of beams, in pieces of at most ``CHUNK``
+        """features and decoded outputs of a batch of beams, in pieces of at most ``PIECE``
         beams spread over ``threads`` threads (NumPy releases the GIL in its array loops and
         LAPACK calls, so the pieces run side by side on a multi-core machine)."""
         B = len(batch)
@@ -970,10 +975,8 @@ class Surrogate:
                 done = list(pool.map(work, slices))
         else:
             done = [work(sl) for sl in slices]
-        feats = np.concatenate([f for f, _ in done])
-        keys = done[0][1].keys()
-        return feats, {k: (None if done[0][1][k] is None
-                           else np.concatenate([d[k] for _, d in done])) for k in keys}
+        return (np.concatenate([f for f, _ in done]),
+                _concatenate_outputs([d for _, d in done]))
 
     def predict(self, beams_or_features, frequencies: bool = True, warn: bool = True,
                 threads: int | None = None) -> Prediction:
