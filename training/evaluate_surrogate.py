@@ -152,27 +152,26 @@ if refine_count or refit_count:
     pick = np.sort(rng.choice(B, size=min(refine_count, B), replace=False))
     beams = {i: ds.beam_for(spec, int(table["index"][i])) for i in
              set(pick.tolist()) | set(range(min(refit_count, B)))}
-    groups = [pick[i:i + fit_batch] for i in range(0, len(pick), fit_batch)]
-    if refine_count:
-        lr, tr = [], []
-        for g in groups:
+    def batched_fits(rows, **options):
+        """fit_many over ``rows`` in calls of ``fit_batch`` beams: (losses, time per beam), each
+        beam charged its call's time divided by the call's beams."""
+        rows = np.asarray(rows)
+        losses, times = [], []
+        for g in [rows[i:i + fit_batch] for i in range(0, len(rows), fit_batch)]:
+            extra = {k: (v[g] if isinstance(v, np.ndarray) else v) for k, v in options.items()}
             t0 = time.perf_counter()
             res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
-                           poses=poses, init_gamma=pred.gamma[g], max_iter=refine_iter)
-            tr += [(time.perf_counter() - t0) / len(g)] * len(g)
-            lr += [x.loss_percent for x in res]
-        lr, tr = np.array(lr), np.array(tr)
+                           poses=poses, **extra)
+            times += [(time.perf_counter() - t0) / len(g)] * len(g)
+            losses += [x.loss_percent for x in res]
+        return np.array(losses), np.array(times)
+
+    if refine_count:
+        lr, tr = batched_fits(pick, init_gamma=pred.gamma, max_iter=refine_iter)
         if refine_candidates and "gamma_candidates" in pred.extra:
-            lc, tc = [], []
             starts = refine_starts(pred.extra["gamma_candidates"])
             H = starts.shape[1]
-            for g in groups:
-                t0 = time.perf_counter()
-                res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
-                               poses=poses, init_gamma=starts[g], max_iter=refine_iter)
-                tc += [(time.perf_counter() - t0) / len(g)] * len(g)
-                lc += [x.loss_percent for x in res]
-            lc, tc = np.array(lc), np.array(tc)
+            lc, tc = batched_fits(pick, init_gamma=starts, max_iter=refine_iter)
             rc = lc / loss_fit[pick]
             results["refined_candidates"] = {
                 "beams": int(len(pick)), "starts": int(H), "max_iter": refine_iter,
@@ -189,14 +188,7 @@ if refine_count or refit_count:
                               "network_loss_median_same_beams": q(loss_net[pick], 50),
                               "time_s_median": q(tr, 50), "time_s_mean": float(tr.mean())}
     if refit_count:
-        tf, lf = [], []
-        rows = list(range(min(refit_count, B)))
-        for g in [rows[i:i + fit_batch] for i in range(0, len(rows), fit_batch)]:
-            t0 = time.perf_counter()
-            res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
-                           poses=poses, starts=spec["starts"], seed=0)
-            tf += [(time.perf_counter() - t0) / len(g)] * len(g)
-            lf += [x.loss_percent for x in res]
+        lf, tf = batched_fits(range(min(refit_count, B)), starts=spec["starts"], seed=0)
         results["refit"] = {"beams": len(tf), "starts": spec["starts"], "fit_batch": fit_batch,
                             "time_s_median": q(tf, 50), "time_s_mean": float(np.mean(tf)),
                             "loss_median": q(lf, 50)}
