@@ -407,3 +407,20 @@ def test_physics_training_on_a_truth_only_set(tmp_path):
     assert meta["dataset"]["spec"]["starts"] == 0 and meta["test"]["fit_loss_median"] is None
     p = sg.load_checkpoint(ckpt).predict([random_beam(3, 100)], warn=False)
     assert np.all(p.k > 0) and abs(p.gamma.sum() - 1) < 1e-12
+
+
+def test_evaluate_surrogate_script(tmp_path):
+    """training/evaluate_surrogate.py end to end on the tiny set: every row, JSON written."""
+    out = tmp_path / "eval.json"
+    run = subprocess.run([sys.executable, str(REPO / "training" / "evaluate_surrogate.py"),
+                          f"--checkpoint={tiny_checkpoint()}", f"--data={tiny() / 'data'}",
+                          "--split=test", "--refine_count=1", "--refine_iter=3", "--fit_batch=2",
+                          "--refit_count=1", "--throughput_count=20", f"--json_out={out}"],
+                         capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    res = json.loads(out.read_text())
+    assert res["beams"] == 1 and res["test_beams"] == 1
+    for key in ("network", "fit", "refined", "refined_candidates", "refit", "throughput"):
+        assert key in res, key
+    assert res["refined_candidates"]["starts"] == sg.load_checkpoint(tiny_checkpoint()).hypotheses + 2
+    assert res["refit"]["starts"] == 2 and res["network"]["loss_median"] >= 0
