@@ -190,13 +190,22 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6):
 
 
 def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quorum,
-          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3):
+          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3, window=15, window_rtol=1e-6):
     """Batched BFGS over rows (start x beam), z kept on the unit sphere. Returns z, loss, iters.
 
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
     step); BFGS updates then add the residual curvature that Gauss-Newton misses, which matters
     here because the residuals at the optimum are not small. Each iteration tries four step
-    lengths in one batched call and keeps the longest that satisfies Armijo's condition."""
+    lengths in one batched call and keeps the longest that satisfies Armijo's condition.
+
+    A row stops when it has converged (``ftol`` three times in a row, or less than
+    ``window_rtol`` relative progress over the last ``window`` iterations), when a better row of
+    its beam is in the same valley, when its beam's best rows agree, or when it is behind: at
+    its pace over the last ``window`` iterations it would not come within 0.1 % of its beam's
+    best loss before ``max_iter``. Most of a lone fit's time used to go to such rows, creeping
+    along poorer valleys to the iteration limit. Measured on 100 random beams (n = 4, seed 2019,
+    64 starts, batched): 64 s to 49 s, every loss within 2.5e-5 of the old one; a window of
+    10 was faster (40 s) but stopped the start that found one beam's best optimum early."""
     rows, d = z.shape
     dtype = z.dtype
     lt_all = lam_truth[beam_of_row]
@@ -213,6 +222,7 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     Hinv = initial_inverse(torch.arange(rows))
     active = torch.ones(rows, dtype=torch.bool)
     stall = torch.zeros(rows, dtype=torch.long)
+    hist = f.detach().clone()[:, None].repeat(1, window)     # the loss of the last iterations
     alphas = torch.tensor([1.0, 0.3, 0.1, 0.02], dtype=dtype)
     it = 0
     for it in range(1, max_iter + 1):
@@ -266,6 +276,14 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
         small = (fi - f_new) <= ftol * fi + 1e-15
         stall[idx] = torch.where(small, stall[idx] + 1, torch.zeros_like(stall[idx]))
         active[idx[stall[idx] >= 3]] = False
+        slot = it % window
+        f_then, hist[idx, slot] = hist[idx, slot], f_new
+        if it >= window:
+            gain = f_then - f_new
+            best_of_beam = torch.full((n_beams,), math.inf, dtype=dtype).scatter_reduce(
+                0, beam_of_row, f, "amin")[beam_of_row[idx]]
+            behind = f_new - gain / window * (max_iter - it) > best_of_beam * (1 + 1e-3)
+            active[idx[(gain <= window_rtol * f_new) | behind]] = False
         if it % 5 == 0:
             # starts that have run into the same valley as a better start follow it: drop them
             idx = torch.nonzero(active).squeeze(-1)
