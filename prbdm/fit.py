@@ -222,6 +222,7 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     Hinv = initial_inverse(torch.arange(rows))
     active = torch.ones(rows, dtype=torch.bool)
     stall = torch.zeros(rows, dtype=torch.long)
+    window = min(window, max_iter + 1)      # a window past the budget never applies
     hist = f.detach().clone()[:, None].repeat(1, window)     # the loss of the last iterations
     alphas = torch.tensor([1.0, 0.3, 0.1, 0.02], dtype=dtype)
     it = 0
