@@ -3,6 +3,8 @@
     python benchmarks/fit_quality.py paper              # Table 4 beside ours (uniform beam)
     python benchmarks/fit_quality.py random --beams 100 # n = 4 / 4 modes and n = 5 / 5 modes
     python benchmarks/fit_quality.py global --beams 20  # default fit vs 10x starts, 10x iterations
+    python benchmarks/fit_quality.py starts --seed 11 --beams 40 --repeats 3
+                                                        # start design: ours vs flat draws only
 
 Random beams: the paper generator (p = 10), seed 2019, truth from the Euler-Bernoulli FEM,
 paper poses, `beam` law. One torch thread (the fastest setting on a shared 2-core machine).
@@ -113,19 +115,72 @@ def global_quality(count, seed, n):
           f"max {excess.max():.2e}; beams within 1 %: {(excess <= 0.01).sum()} of {count}")
 
 
+def _flat_start_points(n, starts, seed, dtype=torch.float64):
+    """The earlier start design: the two fixed segmentations, then flat-Dirichlet draws only."""
+    from prbdm.fit import z_from_gamma
+    from prbdm.model import GAMMA_MIN, uniform_gamma
+    fixed = [uniform_gamma(n, dtype), torch.full((n + 1,), 1.0 / (n + 1), dtype=dtype)][:starts]
+    y = np.random.default_rng([int(seed), n]).dirichlet(np.ones(n + 1),
+                                                        size=max(starts - len(fixed), 0))
+    drawn = torch.as_tensor(GAMMA_MIN + (1 - (n + 1) * GAMMA_MIN) * y, dtype=dtype)
+    return z_from_gamma(torch.cat([torch.stack(fixed), drawn]))
+
+
+def start_design(count, seed, n, repeats):
+    """How often the default fit misses a beam's best optimum, with our start design and with
+    flat draws only: ``repeats`` fit seeds per beam; the reference is the best loss of all those
+    runs and of one 10x-start search."""
+    import prbdm.fit as fit_module
+    beams = [random_beam(seed, i) for i in range(count)]
+    omega = np.stack([bending_frequencies(b, model="beam", modes=n).omega for b in beams])
+    ours = fit_module.start_points
+    loss = {}
+    for name, design in (("flat draws only (earlier)", _flat_start_points),
+                         ("ours (long-root starts)", ours)):
+        fit_module.start_points = design
+        try:
+            t0 = time.process_time()
+            loss[name] = np.array([[r.loss_percent for i in range(0, count, 8)
+                                    for r in fit_many(beams[i:i + 8], omega[i:i + 8], joints=n,
+                                                      modes=n, seed=s)]
+                                   for s in range(repeats)])
+            t = (time.process_time() - t0) / count / repeats
+        finally:
+            fit_module.start_points = ours
+        loss[name] = (loss[name], t)
+    big = np.array([fit_many([b], omega[i:i + 1], joints=n, modes=n,
+                             starts=10 * default_starts(n), seed=10 ** 6)[0].best_loss_percent
+                    for i, b in enumerate(beams)])
+    ref = np.minimum(big, np.min([v.min(0) for v, _ in loss.values()], 0))
+    print(f"start design, n = {n}: {count} beams of seed {seed} x {repeats} fit seeds, "
+          f"{default_starts(n)} starts; a run misses when its loss is > 1 % above the best loss "
+          "found for its beam by any run or by one 10x-start search")
+    print(f"{'design':28s} {'missed runs':>12s} {'beams missed':>13s} {'max excess':>11s} "
+          f"{'median loss %':>14s} {'CPU s/beam':>11s}")
+    for name, (v, t) in loss.items():
+        ex = v / ref - 1
+        print(f"{name:28s} {f'{(ex > 0.01).sum()} of {ex.size}':>12s} "
+              f"{int((ex > 0.01).any(0).sum()):13d} {ex.max():11.3f} {np.median(v):14.4f} "
+              f"{t:11.3f}")
+    print(f"10x-start search: {int((big / ref - 1 > 0.01).sum())} of {count} beams > 1 % above")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("paper", "random", "global"))
+    ap.add_argument("what", choices=("paper", "random", "global", "starts"))
     ap.add_argument("--beams", type=int, default=100)
     ap.add_argument("--seed", type=int, default=2019)
     ap.add_argument("--joints", type=int, default=4)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=3, help="starts: fit seeds per beam")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     if args.what == "paper":
         paper_problem()
     elif args.what == "random":
         random_distribution(args.beams, args.seed)
+    elif args.what == "starts":
+        start_design(args.beams, args.seed, args.joints, args.repeats)
     else:
         global_quality(args.beams, args.seed, args.joints)
 
