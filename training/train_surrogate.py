@@ -69,13 +69,6 @@ cells = 16                           # feature cells along x / L
 rfe_segments = 96                    # links of the rigid-finite-element frequency estimate
 rfe_coarse = 16                      # > 0: that estimate by Rayleigh-Ritz from a chain of this
                                      # many links (cheap; see prbdm.surrogate.rfe_log_omega)
-init_checkpoint = ""                 # start from this checkpoint's weights and normalisation
-                                     # (same features and network) instead of random weights
-targets = ""                         # .npz of training/refine_targets.py: refined gamma per
-                                     # beam and candidate
-target_weight = 0.0                  # physics/combined: + target_weight * the candidates'
-                                     # squared distance to their targets, in target_scale units
-target_scale = 0.01                  # gamma distance that counts as 1 in the target term
 threads = 1                          # torch threads
 quiet = False                        # only the summary lines
 # -------------------------------------------------------------------------------------------
@@ -115,14 +108,6 @@ from prbdm import model  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 
 torch.set_num_threads(threads)
-
-
-def _file_sha256(path):
-    import hashlib
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
 out_path = Path(out)
 out_path.parent.mkdir(parents=True, exist_ok=True)
 log_path = out_path.with_suffix(".log")
@@ -201,21 +186,6 @@ norm_np = {"feature_mean": f_mean, "feature_std": f_std,
            "logk_mean": y_logk[tr].mean(0), "logk_std": np.maximum(y_logk[tr].std(0), 1e-6),
            "freq_mean": y_corr[tr].mean(0), "freq_std": np.maximum(y_corr[tr].std(0), 1e-6),
            "gamma_mean": y_gamma[tr].mean(0), "gamma_std": np.maximum(y_gamma[tr].std(0), 1e-6)}
-init_info = None
-if init_checkpoint:
-    # the warm start keeps its own normalisation: the weights only mean something with it
-    _sur0 = sg.load_checkpoint(init_checkpoint)
-    _net0 = _sur0.metadata["network"]
-    _want = {"width": width, "depth": depth, "k_mode": k_mode, "hypotheses": hypotheses}
-    _diff = [k for k, v in _want.items() if _net0.get(k) != v]
-    if _diff or _sur0.feature_spec != fspec or _sur0.joints != n or _sur0.truth != spec["truth"]:
-        sys.exit(f"train_surrogate: --init_checkpoint {init_checkpoint}: its network or features "
-                 f"differ from this configuration ({', '.join(_diff) or 'features, joints or truth'})")
-    norm_np = {k: np.asarray(v, dtype=np.float64) for k, v in _sur0.norm.items()}
-    f_mean, f_std = norm_np["feature_mean"], norm_np["feature_std"]
-    init_info = {"path": str(init_checkpoint), "sha256": _file_sha256(init_checkpoint),
-                 "git_commit": _sur0.metadata.get("git_commit"),
-                 "dataset_sha256": _sur0.metadata.get("dataset", {}).get("sha256")}
 norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in norm_np.items()}
 
 F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32)
@@ -223,28 +193,6 @@ Yg = torch.as_tensor(y_gamma, dtype=torch.float32)
 Yk = torch.as_tensor(y_logk, dtype=torch.float32)
 Yc = torch.as_tensor(y_corr, dtype=torch.float32)
 RFE = torch.as_tensor(feats[:, rfe0:rfe0 + R], dtype=torch.float32)
-target_info, TG, has_target = None, None, None
-if targets:
-    with np.load(targets) as _z:
-        _t_index, _t_gamma = _z["index"], _z["gamma"]
-        _t_meta = json.loads(str(_z["meta"]))
-    if _t_gamma.shape[1:] != (hypotheses, n + 1):
-        sys.exit(f"train_surrogate: --targets {targets}: shape {_t_gamma.shape[1:]}, need "
-                 f"({hypotheses}, {n + 1}) (hypotheses, n + 1)")
-    _pos = {int(i): j for j, i in enumerate(_t_index)}
-    _row = np.array([_pos.get(int(i), -1) for i in idx])
-    has_target = torch.as_tensor(_row >= 0)
-    TG = torch.as_tensor(np.where((_row >= 0)[:, None, None], _t_gamma[_row], 0.0),
-                         dtype=torch.float32)
-    if not bool(has_target[torch.as_tensor(split["train"])].all()):
-        sys.exit(f"train_surrogate: --targets {targets}: not every training beam has targets")
-    if set(_t_index.tolist()) & set(idx[split["val"]].tolist()) | \
-            set(_t_index.tolist()) & set(idx[split["test"]].tolist()):
-        sys.exit(f"train_surrogate: --targets {targets}: holds validation or test beams")
-    target_info = {"path": str(targets), "sha256": _file_sha256(targets), "beams": len(_t_index),
-                   "made_by": _t_meta}
-    log(f"targets {targets}: {len(_t_index)} beams x {hypotheses} candidates, refined "
-        f"{_t_meta['config']['max_iter']} iterations from {_t_meta['config']['checkpoint']}")
 BX = torch.as_tensor(batch.x)
 BW = torch.as_tensor(batch.w)
 lam_hat = torch.as_tensor(omega_truth[:, :r] ** 2 / batch.lambda0[:, None])
@@ -291,11 +239,6 @@ def vp_loss(rows, d):
     return wta(loss)
 
 
-def target_term(rows, d):
-    """Mean squared distance of every candidate to its refined target, in target_scale units."""
-    return (((d["gamma_all"] - TG[rows]) / target_scale) ** 2).mean()
-
-
 def label_terms(rows, d):
     ga = d["gamma_all"]
     lg = wta((((ga - Yg[rows][:, None]) / norm["gamma_std"]) ** 2).mean(-1)).mean()
@@ -325,10 +268,6 @@ Net = sg.SurrogateNet
 def make_net():
     net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
               hypotheses=hypotheses)
-    if init_checkpoint:
-        return net.load_weights({f"layers.{i}.{p}": a
-                                 for i, (W, b) in enumerate(_sur0.layers)
-                                 for p, a in (("weight", W), ("bias", b))})
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
@@ -364,11 +303,6 @@ def train(mode):
     gen = torch.Generator().manual_seed(seed)
     train_rows = torch.as_tensor(split["train"])
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
-    if init_checkpoint:   # the warm start is epoch 0: training must beat it to replace it
-        v0 = evaluate(net, split["val"])
-        best, best_state = v0["loss_mean"], {k: v.clone() for k, v in net.state_dict().items()}
-        log(f"{mode:8s} epoch    0  (warm start)  val loss mean {v0['loss_mean']:.4f} % median "
-            f"{v0['loss_median']:.4f} % p95 {v0['loss_p95']:.4f} %", always=False)
     t0 = time.perf_counter()
     epoch = 0
     for epoch in range(1, max_epochs + 1):
@@ -381,8 +315,6 @@ def train(mode):
             if mode in ("physics", "combined"):
                 phys = (physics_loss(rows, d["gamma"], d["logk"], d["mu"]).mean()
                         + vp_weight * vp_loss(rows, d).mean()).float()
-                if target_weight:
-                    phys = phys + target_weight * target_term(rows, d)
             if mode == "label":
                 loss = lg + lk + freq_weight * lc
             elif mode == "physics":
@@ -466,8 +398,7 @@ meta = {
                           **{k: int(len(v)) for k, v in split.items()}}},
     "training": {"config": config, "seeds": {"torch": seed, "numpy": seed, "batch_order": seed},
                  "selected_mode": selected, "selection": "lowest mean validation PRBDM loss",
-                 "comparison": results, "time_s": train_time, "torch_threads": threads,
-                 "init_checkpoint": init_info, "targets": target_info},
+                 "comparison": results, "time_s": train_time, "torch_threads": threads},
     "versions": versions, "git_commit": ds._git_commit(),
 }
 sg.save_checkpoint(out_path, net.weights(), meta)
