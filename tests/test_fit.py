@@ -230,7 +230,7 @@ def test_default_fit_is_globally_good():
 
 def test_several_starts_per_beam_and_refine_starts():
     """init_gamma (B, H, n+1): each beam's own start set, the best kept; refine_starts appends
-    the fit's two fixed starts."""
+    the fit's four fixed starts."""
     beams = [random_beam(0, i) for i in (1, 2)]
     om = np.stack([bending_frequencies(b, model="beam", modes=3).omega for b in beams])
     full = fit_many(beams, om, joints=2, starts=16, seed=0)
@@ -241,9 +241,12 @@ def test_several_starts_per_beam_and_refine_starts():
         # a start on a bound is nudged off it (INIT_Z_FLOOR), hence not exactly the same loss
         assert a.n_starts == 2 and a.best_loss_percent <= f.best_loss_percent * (1 + 1e-4)
     s = refine_starts(starts)
-    assert s.shape == (2, 4, 3)
+    assert s.shape == (2, 6, 3)
+    np.testing.assert_array_equal(s[:, :2], starts)
     np.testing.assert_allclose(s[:, 2], np.broadcast_to([0.25, 0.5, 0.25], (2, 3)))
     np.testing.assert_allclose(s[:, 3], 1 / 3)
+    np.testing.assert_allclose(s[:, 4], np.broadcast_to(long_root_gamma(2, 0.8), (2, 3)))
+    np.testing.assert_allclose(s[:, 5], np.broadcast_to(long_root_gamma(2, 0.65), (2, 3)))
     with pytest.raises(BadInput, match="init_gamma"):
         fit_many(beams, om, joints=2, init_gamma=np.full((3, 3), 1 / 3))
 

@@ -422,5 +422,5 @@ def test_evaluate_surrogate_script(tmp_path):
     assert res["beams"] == 1 and res["test_beams"] == 1
     for key in ("network", "fit", "refined", "refined_candidates", "refit", "throughput"):
         assert key in res, key
-    assert res["refined_candidates"]["starts"] == sg.load_checkpoint(tiny_checkpoint()).hypotheses + 2
+    assert res["refined_candidates"]["starts"] == sg.load_checkpoint(tiny_checkpoint()).hypotheses + 4
     assert res["refit"]["starts"] == 2 and res["network"]["loss_median"] >= 0

@@ -34,10 +34,10 @@ import numpy as np
 checkpoint = "prbdm/checkpoints/beam-n4.safetensors"
 data = ""                 # default: the data set path recorded in the checkpoint
 split = "heldout"         # test | new | heldout
-refine_count = 200        # beams refined one at a time (0: skip)
-refine_iter = 20
+refine_count = 200        # beams refined, fit_batch per call (0: skip)
+refine_iter = 30
 refine_candidates = True  # also refine from all of the network's candidate gammas and the fit's
-                          # two fixed starts (prbdm.fit.refine_starts), each beam in one fit
+                          # four fixed starts (prbdm.fit.refine_starts), each beam in one fit
 refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
 fit_batch = 1             # beams per fit_many call in the refined and re-fit rows (1: one at
                           # a time; the data sets label in batches of 8): time per beam is the
@@ -256,9 +256,14 @@ if "refined" in results:
           f"fits: {rd['fit_loss_median_same_beams']:.4f} %)")
 if "refined_candidates" in results:
     rc_ = results["refined_candidates"]
-    print(f"refined from {rc_['starts']} starts (candidates + 2 fixed) / optimised: median ratio "
+    print(f"refined from {rc_['starts']} starts (candidates + 4 fixed) / optimised: median ratio "
           f"{rc_['ratio_median']:.3f}, p95 {rc_['ratio_p95']:.3f}, within 10 %: "
           f"{rc_['share_within_10pct'] * 100:.1f} % of beams")
+    if "refit" in results:
+        tf_ = results["refit"]["time_s_mean"]
+        print(f"time per beam ({fit_batch} beams per call): refined from {rc_['starts']} starts "
+              f"{rc_['time_s_mean']:.4f} s, optimised fit re-run {tf_:.4f} s: 1/"
+              f"{tf_ / rc_['time_s_mean']:.1f} of the fit's time")
 print("\nnetwork's direct truth-frequency prediction, relative error per mode:")
 print("  median: " + ", ".join(f"mode {j + 1} {e * 100:.3f} %" for j, e in
                                 enumerate(net["freq_err_median"])))

@@ -6,7 +6,7 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
-- ``refined``: the fit started from the network's candidate gammas and the fit's two fixed starts
+- ``refined``: the fit started from the network's candidate gammas and the fit's four fixed starts
   (:func:`prbdm.fit.refine_starts`), ``--refine-iter`` iterations (:func:`prbdm.fit.fit_many`
   with ``init_gamma``).
 
@@ -44,8 +44,9 @@ def add_arguments(parser):
                         help="start points of the optimised fit (default: prbdm fit's)")
     parser.add_argument("--seed", type=positive_int(0), default=0,
                         help="seed of the fit's start points (default 0)")
-    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=20,
-                        help="iterations of the refinement from the network's candidates (default 20)")
+    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=30,
+                        help="iterations of the refinement from the network's candidates and the "
+                             "fit's fixed starts (default 30)")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
