@@ -82,6 +82,13 @@ def run(args) -> int:
         pred = sur.predict(beam, frequencies=True)
         t_net = time.perf_counter() - t0
 
+    import torch
+
+    # one process, small batched problems: one thread is fastest (as `prbdm fit`; README,
+    # "Threads"); with the default threads a lone fit took 5.7 s instead of 0.8 s on a busy
+    # 2-core machine
+    torch.set_num_threads(1)
+
     from ..fit import fit_many, fit_prbdm, refine_starts
 
     poses = sur.poses.tolist()
