@@ -705,14 +705,16 @@ def _cases() -> list[Case]:
     c.append(Case("fit from gamma corners 0, 4", varied, case_fit_bounds, dict(corners=[0, 4])))
     c.append(Case("fit from all gamma corners", varied, case_fit_bounds,
                   dict(corners=[0, 1, 2, 3, 4]), quick=False))
-    c.append(Case("network: in-range beam", "random_beam(0, 5000), unseen", case_network,
-                  dict(beam=random_beam(0, 5000), expect_ood=False)))
+    c.append(Case("network: in-range beam", "random_beam(0, 100000), unseen", case_network,
+                  dict(beam=random_beam(0, 100000), expect_ood=False)))
     c.append(Case("network: needle tip 1e5:1", "shape", case_network,
                   dict(beam=Beam(x=[0, 1], half_width=[0.1, 1e-6], thickness=0.02),
                        expect_ood=False), quick=False))
-    c.append(Case("network: 100:1 step", "shape outside training", case_network,
+    # inside the per-feature training range of the 80,000-beam checkpoint (outside that of the
+    # 20,000-beam one it replaced): no warning, and the in-range accuracy is required
+    c.append(Case("network: 100:1 step", "shape at the edge of training", case_network,
                   dict(beam=Beam(x=[0, 0.5, 0.51, 1], half_width=[0.2, 0.2, 2e-3, 2e-3],
-                                 thickness=0.02), expect_ood=True)))
+                                 thickness=0.02), expect_ood=False)))
     c.append(Case("network: 1e4:1 step", "shape outside training", case_network,
                   dict(beam=Beam(x=[0, 0.5, 0.51, 1], half_width=[0.2, 0.2, 2e-5, 2e-5],
                                  thickness=0.02), expect_ood=True), quick=False))
