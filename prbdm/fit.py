@@ -492,16 +492,12 @@ def refine_starts(gamma) -> np.ndarray:
     links, the two long roots of :func:`start_points`): (B, H + 4, n+1), for
     ``fit_many(..., init_gamma=...)``. Measured on 200 held-out beams (docs/surrogate.md): with
     the two long-root starts added, 20 iterations from a network's 4 candidates end a median 1.16
-    times the optimised loss instead of 1.29, at 1.2 times the time per beam."""
+    times the optimised loss instead of 1.29, at 1.1 times the time per beam."""
     g = np.asarray(gamma, dtype=np.float64)
     g = g[:, None, :] if g.ndim == 2 else g
     n = g.shape[-1] - 1
     fixed = gamma_from_z(start_points(n, FIXED_STARTS, 0)).numpy()
     return np.concatenate([g, np.broadcast_to(fixed, (g.shape[0], FIXED_STARTS, n + 1))], axis=1)
-
-
-#: refinement iterations used by ``prbdm compare`` and ``prbdm report`` (docs/surrogate.md)
-REFINE_ITER = 30
 
 
 def fit_prbdm(beam, omega_truth, joints: int, modes: int | None = None, law: str = "beam",

@@ -48,7 +48,7 @@ __all__ = ["ReportConfig", "run_report", "write_report", "render_markdown", "hel
 
 JOINTS, MODES = 4, 4
 DEFAULT_STARTS = (8, 16, 32, 64)
-REFINE_ITER = 30                  # as prbdm.fit.REFINE_ITER (not imported: report's CLI stays light)
+REFINE_ITER = 30                  # as `prbdm compare --refine-iter` (docs/surrogate.md §5)
 
 
 @dataclass
