@@ -153,8 +153,8 @@ def start_points(n: int, starts: int, seed: int, dtype=torch.float64) -> torch.T
     corner of the simplex (root link 0.6 - 0.85, a short second link) that is a few percent of
     its volume and holds many narrow local optima next to each other; flat draws put one or two
     starts there. Measured on 60 beams of seed 7, 5 seeds each, n = 4, 64 starts: runs more than
-    1 % above the best loss ever found for the beam fell from 29 of 300 (two fixed + flat draws)
-    to 4 of 300, at the same time per beam (docs: README §4)."""
+    1 % above the best loss found for the beam fell from 29 of 300 (two fixed + flat draws) to 3
+    of 300, at no extra time per beam (``benchmarks/fit_quality.py starts``; README §4)."""
     fixed = [uniform_gamma(n, dtype), torch.full((n + 1,), 1.0 / (n + 1), dtype=dtype)]
     fixed += [long_root_gamma(n, g0, dtype) for g0 in LONG_ROOTS]
     fixed = fixed[:starts]
