@@ -15,7 +15,9 @@ Variants (``name,iterations``, separated by ``;``): ``fit`` (the re-run 64-start
 first), ``default`` (the network's candidates + the fit's four fixed starts,
 :func:`prbdm.fit.refine_starts`), ``two_fixed`` (candidates + the rigid-finite-element and
 equal-link starts only: the earlier default), ``fixed`` (the four fixed starts alone, no network),
-``drawnK`` (``default`` + K seeded draws of the fit's start design).
+``drawnK`` (``default`` + K seeded draws of the fit's start design), ``topJ`` (the network's J
+best candidates by their loss against its predicted frequencies + the four fixed starts) and
+``topJdrawnK`` (that + K draws).
 """
 from __future__ import annotations
 
@@ -55,7 +57,8 @@ def main():
     table = table.iloc[pick].reset_index(drop=True)
     B = len(table)
     batch = sg.BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
-    cand = sur.predict(batch, warn=False).extra["gamma_candidates"]
+    pred = sur.predict(batch, warn=False)
+    cand = pred.ranked_candidates()
     omega = np.stack(table["omega_truth"].to_numpy())
     beams = [ds.beam_for(spec, int(i)) for i in table["index"]]
     fit_loss = table["loss_percent"].to_numpy()
@@ -76,10 +79,13 @@ def main():
             starts = np.concatenate([cand, np.broadcast_to(fixed[:2], (B, 2, n + 1))], 1)
         elif name == "fixed":
             starts = np.broadcast_to(fixed, (B, len(fixed), n + 1))
-        elif name.startswith("drawn"):
-            k = int(name[5:])
+        elif name.startswith(("drawn", "top")):
+            top, _, k = name.removeprefix("top").partition("drawn")
+            k = int(k or 0)
+            keep = int(top) if name.startswith("top") else None
             drawn = gamma_from_z(start_points(n, FIXED_STARTS + k, 0)).numpy()[FIXED_STARTS:]
-            starts = np.concatenate([refine_starts(cand), np.broadcast_to(drawn, (B, k, n + 1))], 1)
+            starts = np.concatenate([refine_starts(pred.ranked_candidates(keep)),
+                                     np.broadcast_to(drawn, (B, k, n + 1))], 1)
         else:
             raise SystemExit(f"bench_refine: unknown variant {name!r}")
         if starts is not None:

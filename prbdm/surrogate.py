@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import struct
 import time
@@ -62,11 +63,11 @@ __all__ = ["BeamBatch", "FeatureSpec", "features", "feature_names", "prbdm_eigen
            "link_table", "Surrogate", "Prediction", "load_checkpoint", "save_checkpoint",
            "default_checkpoint", "available_checkpoints", "predict", "dataset_hash",
            "OutOfDistributionWarning", "CHECKPOINT_FORMAT", "GAMMA_MIN", "GAMMA_MAX",
-           "SurrogateNet", "rfe_log_omega"]
+           "SurrogateNet", "SurrogateEnsemble", "rfe_log_omega", "gauss_select_poses"]
 
 GAMMA_MIN, GAMMA_MAX = 0.025, 0.975     # as prbdm.model (not imported: it imports torch)
 CHECKPOINT_FORMAT = "prbdm-surrogate"
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2      # 2: several members (an ensemble) and the choice poses
 #: fraction of a feature's training range by which an input may exceed it before a warning
 OOD_MARGIN = 0.05
 #: folders searched for default checkpoints: $PRBDM_CHECKPOINTS (os.pathsep-separated), then the
@@ -507,8 +508,20 @@ def gamma_from_logits_np(logits, g_min: float = GAMMA_MIN):
 
 
 K_MODES = ("projection", "direct")
-#: the poses on which candidate segmentations are compared (first and last of the set)
+#: the poses on which a checkpoint without ``network.select_poses`` (format 1) compares its
+#: candidate segmentations: the first and last of the set
 SELECT_POSES = [0, -1]
+
+
+def gauss_select_poses(m: int) -> list:
+    """Indices of the poses on which candidates are compared, for a set of m poses: the two
+    nearest the 2-point Gauss-Legendre nodes of the pose index range (m = 6: poses 1 and 4). The
+    choice estimates the mean loss over the poses, which two Gauss nodes integrate far better
+    than the end points (docs/surrogate.md §2)."""
+    if m <= 2:
+        return list(range(m))
+    c = (m - 1) / 2
+    return sorted({int(round(c - c / math.sqrt(3))), int(round(c + c / math.sqrt(3)))})
 #: scale of the k head in ``projection`` mode: an output of 1 changes k by a factor e^0.01
 K_DELTA_SCALE = 0.01
 
@@ -532,7 +545,7 @@ def _candidate_losses(mu, lam):
 
 
 def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None, poses=None,
-                 r=None, hypotheses: int = 1) -> dict:
+                 r=None, hypotheses: int = 1, select_poses=SELECT_POSES) -> dict:
     """The network's raw head ``out`` (B, H (n+1) + m + R) -> a dict of gamma (B, n+1), logk
     (B, m), log_omega_hat (B, R), mu (B, m, n) unit-k PRBDM eigenvalues, and with H > 1 the
     candidates ``gamma_all`` (B, H, n+1) and the chosen one ``select`` (B,).
@@ -548,7 +561,7 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
       variable projection as the fit, SPEC §3, with the prediction in place of the truth), times
       ``exp(K_DELTA_SCALE * out)``. It needs the geometry (x, w / L), the poses and r.
     - with H > 1 candidates, the one kept is the one whose PRBDM best matches the predicted truth
-      frequencies (the SPEC §3 loss against ``omega_hat``, on the first and last poses of the
+      frequencies (the SPEC §3 loss against ``omega_hat``, on the poses ``select_poses`` of the
       set): the network proposes, the physics chooses. Without geometry, candidate 0 is
       returned and logk is None.
     Every output is valid by construction: k > 0 because mu > 0 and omega_hat > 0.
@@ -561,7 +574,7 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
     kh = out[:, H * n1:H * n1 + m]
     log_omega_hat = rfe + out[:, H * n1 + m:] * norm["freq_std"] + norm["freq_mean"]
     res = {"gamma": gamma_all[:, 0], "logk": None, "log_omega_hat": log_omega_hat, "mu": None,
-           "gamma_all": gamma_all, "select": np.zeros(B, dtype=np.int64)}
+           "gamma_all": gamma_all, "select": np.zeros(B, dtype=np.int64), "candidate_loss": None}
     if k_mode == "direct":
         res["logk"] = kh * norm["logk_std"] + norm["logk_mean"]
     elif x is not None:
@@ -570,9 +583,10 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
         sel = np.zeros(B, dtype=np.int64)
         if H > 1:       # choose on the first and last poses only (cheap), then solve all poses
             mu_all = prbdm_eigenvalues(np.repeat(x, H, 0), np.repeat(w, H, 0),
-                                       gamma_all.reshape(B * H, n1), poses[SELECT_POSES])
+                                       gamma_all.reshape(B * H, n1), poses[select_poses])
             mu_all = mu_all.reshape(B, H, *mu_all.shape[1:])
-            sel = np.argmin(_candidate_losses(mu_all[..., :r], lam_p)[1], axis=1)
+            res["candidate_loss"] = _candidate_losses(mu_all[..., :r], lam_p)[1]
+            sel = np.argmin(res["candidate_loss"], axis=1)
         gamma = gamma_all[rows, sel]
         mu = prbdm_eigenvalues(x, w, gamma, poses)
         kp = _project_k(mu[..., :r], lam_p)
@@ -580,10 +594,28 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
     return res
 
 
+def combine_members(outs: list, hypotheses: int, joints: int):
+    """One head output from the heads of an ensemble's members (each (B, H (n+1) + m + R)):
+    every member's H candidate segmentations side by side (M H candidates; the physics chooses
+    among all of them), the mean k correction and the mean frequency correction (averaging
+    independent networks' frequency predictions lowers their error). NumPy or torch."""
+    if len(outs) == 1:
+        return outs[0]
+    c = hypotheses * (joints + 1)
+    if isinstance(outs[0], np.ndarray):
+        return np.concatenate([o[:, :c] for o in outs]
+                              + [np.mean([o[:, c:] for o in outs], axis=0)], axis=1)
+    import torch
+    return torch.cat([o[:, :c] for o in outs] + [torch.stack([o[:, c:] for o in outs]).mean(0)],
+                     dim=1)
+
+
 def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None, w=None,
-                 poses=None, r=None, hypotheses: int = 1) -> dict:
+                 poses=None, r=None, hypotheses: int = 1, select_poses=None) -> dict:
     """Torch twin of :func:`decode_numpy` (differentiable; eigenvalues in float64). Also returns
-    ``mu_all`` (B, H, m, n) for the training losses."""
+    ``mu_all`` (B, H, m, n) for the training losses. By default (``select_poses=None``) the
+    candidates are compared on every pose (all are solved for the training losses anyway): the
+    rule that the Gauss poses of :func:`decode_numpy` approximate at a third of the cost."""
     import torch
 
     from . import model
@@ -606,7 +638,10 @@ def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None,
         mu_all = model.eigenvalues_unit_k(bt, gamma_all.double(), poses, "beam")
         lam_p = torch.exp(2 * log_omega_hat[:, :r].double())
         rows = torch.arange(B)
-        sel = _candidate_losses(mu_all[:, :, SELECT_POSES, :r], lam_p)[1].detach().argmin(1)
+        # the choice on every pose, as the loss itself (the first and last poses alone chose a
+        # worse candidate for many beams: docs/surrogate.md §5)
+        on = mu_all if select_poses is None else mu_all[:, :, select_poses]
+        sel = _candidate_losses(on[..., :r], lam_p)[1].detach().argmin(1)
         mu = mu_all[rows, sel]
         kp = _project_k(mu[..., :r], lam_p)
         res.update(gamma=gamma_all[rows, sel], mu=mu, mu_all=mu_all, select=sel,
@@ -645,15 +680,16 @@ def _torch_net_class():
                 h = torch.nn.functional.silu(layer(h))
             return self.head(h)
 
-        def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None) -> dict:
+        def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
+                    select_poses=None) -> dict:
             """Decoded outputs for standardised features ``f`` (B, F), see
             :func:`decode_torch`: gamma (B, n+1), logk (B, m), log_omega_hat (B, R), mu
             (B, m, n) unit-k PRBDM eigenvalues (float64; None for ``k_mode = 'direct'``), ...
             ``norm``: torch tensors of the normalisation; ``rfe`` (B, R) the log_omega_rfe
             features; x, w (B, S) / L, poses (m, n) and the mapped mode count r are needed by
-            ``k_mode = 'projection'``."""
+            ``k_mode = 'projection'``; candidates are compared on ``select_poses`` (all: None)."""
             return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                                poses, r, self.hypotheses)
+                                poses, r, self.hypotheses, select_poses)
 
         def weights(self) -> dict:
             """The weights as the checkpoint stores them: layers.{i}.weight/bias, NumPy float32."""
@@ -670,7 +706,33 @@ def _torch_net_class():
                 layer.bias.data.copy_(_t.as_tensor(weights[f"layers.{i}.bias"]))
             return self
 
-    return SurrogateNet
+    class SurrogateEnsemble(nn.Module):
+        """Several :class:`SurrogateNet` members as one network: their candidates side by side
+        and their k and frequency corrections averaged (:func:`combine_members`)."""
+
+        def __init__(self, members):
+            super().__init__()
+            self.members = nn.ModuleList(members)
+            first = members[0]
+            self.joints, self.n_poses, self.modes = first.joints, first.n_poses, first.modes
+            self.k_mode, self.member_hypotheses = first.k_mode, first.hypotheses
+            self.hypotheses = first.hypotheses * len(members)
+
+        def forward(self, f):
+            return combine_members([net(f) for net in self.members], self.member_hypotheses,
+                                   self.joints)
+
+        def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
+                    select_poses=None) -> dict:
+            return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
+                                poses, r, self.hypotheses, select_poses)
+
+        def weights(self) -> dict:
+            """members.{j}.layers.{i}.weight/bias, NumPy float32."""
+            return {f"members.{j}.{k}": v for j, net in enumerate(self.members)
+                    for k, v in net.weights().items()}
+
+    return SurrogateNet, SurrogateEnsemble
 
 
 _NET = None
@@ -680,10 +742,10 @@ def __getattr__(name):
     # SurrogateNet is a torch module: built on first use, so that importing this module (and
     # ``prbdm predict``) never imports torch
     global _NET
-    if name == "SurrogateNet":
+    if name in ("SurrogateNet", "SurrogateEnsemble"):
         if _NET is None:
             _NET = _torch_net_class()
-        return _NET
+        return _NET[name == "SurrogateEnsemble"]
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -827,7 +889,9 @@ class Prediction:
     PRBDM's own frequencies per pose; poses (m, n) [rad]; law; ood: (B, F) bool, True where a
     feature lies outside its training range (with the margin); warnings: one text per beam and
     offending feature (at most 20 listed); time_s: wall time of the prediction; extra:
-    ``gamma_candidates`` (B, H, n+1) and ``selected`` (B,) for a network with H > 1 candidates.
+    ``gamma_candidates`` (B, H, n+1), ``selected`` (B,) and ``candidate_loss`` (B, H) (each
+    candidate's SPEC §3 loss [%] against the predicted truth frequencies, on the choice poses)
+    for a network with H > 1 candidates; see :meth:`ranked_candidates`.
 
     From features alone (no geometry) only log_omega_hat is complete: k (``projection`` mode)
     and the choice among several candidate gammas need the beam's PRBDM, so they are None (with
@@ -845,6 +909,16 @@ class Prediction:
     omega: np.ndarray | None = None
     time_s: float = 0.0
     extra: dict = field(default_factory=dict)
+
+    def ranked_candidates(self, count: int | None = None) -> np.ndarray:
+        """The candidate segmentations (B, count, n+1), best first by their loss against the
+        predicted truth frequencies (the kept ``gamma`` is first): start points for a short
+        refinement (:func:`prbdm.fit.refine_starts`). One candidate: ``gamma`` (B, 1, n+1)."""
+        cand, loss = self.extra.get("gamma_candidates"), self.extra.get("candidate_loss")
+        if cand is None or loss is None:
+            return self.gamma[:, None, :]
+        order = np.argsort(loss, axis=1, kind="stable")[:, :count]
+        return np.take_along_axis(cand, order[..., None], axis=1)
 
 
 class Surrogate:
@@ -864,14 +938,25 @@ class Surrogate:
                          for k, v in metadata["normalisation"].items()}
             self.f_mean, self.f_std = self.norm["feature_mean"], self.norm["feature_std"]
             self.k_mode = str(metadata["network"].get("k_mode", "direct"))
-            self.hypotheses = int(metadata["network"].get("hypotheses", 1))
+            net = metadata["network"]
+            self.member_hypotheses = int(net.get("hypotheses", 1))
+            self.n_members = int(net.get("members", 1))
+            self.hypotheses = self.member_hypotheses * self.n_members   # candidates in all
+            self.select_poses = [int(i) for i in net.get("select_poses", SELECT_POSES)]
             self.f_min = np.asarray(metadata["features"]["min"], dtype=np.float64)
             self.f_max = np.asarray(metadata["features"]["max"], dtype=np.float64)
             self.names = list(metadata["features"]["names"])
-            n_layers = len([k for k in tensors if k.endswith(".weight")])
-            self.layers = [(np.ascontiguousarray(tensors[f"layers.{i}.weight"], np.float32),
-                            np.ascontiguousarray(tensors[f"layers.{i}.bias"], np.float32))
-                           for i in range(n_layers)]
+            prefixes = ([""] if self.n_members == 1 else
+                        [f"members.{j}." for j in range(self.n_members)])
+            self.members = []
+            for pre in prefixes:
+                n_layers = len([k for k in tensors
+                                if k.startswith(pre + "layers.") and k.endswith(".weight")])
+                self.members.append(
+                    [(np.ascontiguousarray(tensors[f"{pre}layers.{i}.weight"], np.float32),
+                      np.ascontiguousarray(tensors[f"{pre}layers.{i}.bias"], np.float32))
+                     for i in range(n_layers)])
+            self.layers = self.members[0]
         except (KeyError, TypeError, ValueError) as exc:
             where = f" {str(path)!r}" if path else ""
             raise BadInput(f"checkpoint{where}: incomplete surrogate metadata or weights "
@@ -912,16 +997,20 @@ class Surrogate:
                                   None if batch is None else batch.take(slice(i, i + CHUNK)))
                      for i in range(0, feats.shape[0], CHUNK)]
             return _concatenate_outputs(parts)
-        h = ((feats - self.f_mean) / self.f_std).astype(np.float32)
-        for W, b in self.layers[:-1]:
-            h = _silu(h @ W.T + b)
-        W, b = self.layers[-1]
-        out = (h @ W.T + b).astype(np.float64)
+        f = ((feats - self.f_mean) / self.f_std).astype(np.float32)
+        outs = []
+        for layers in self.members:
+            h = f
+            for W, b in layers[:-1]:
+                h = _silu(h @ W.T + b)
+            W, b = layers[-1]
+            outs.append((h @ W.T + b).astype(np.float64))
+        out = combine_members(outs, self.member_hypotheses, self.joints)
         rfe0 = 2 * self.feature_spec.cells
         rfe = feats[:, rfe0:rfe0 + len(self.norm["freq_mean"])]
         x, w = (batch.x, batch.w) if batch is not None else (None, None)
         return decode_numpy(out, self.norm, self.joints, self.k_mode, rfe, x, w, self.poses,
-                            self.modes, self.hypotheses)
+                            self.modes, self.hypotheses, self.select_poses)
 
     def check_range(self, feats: np.ndarray):
         """(B, F) bool out-of-range mask and the warning texts (at most ``20``)."""
@@ -1016,6 +1105,7 @@ class Surrogate:
                 pred.gamma = None
             else:
                 pred.extra["selected"] = d["select"]
+                pred.extra["candidate_loss"] = d["candidate_loss"]
         if batch is not None:
             sq = np.sqrt(batch.lambda0)[:, None]
             pred.omega_truth = np.exp(low) * sq

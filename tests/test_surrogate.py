@@ -91,7 +91,7 @@ def test_outputs_valid_by_construction():
             assert np.all(np.isfinite(d["log_omega_hat"]))
             t = sg.decode_torch(torch.as_tensor(out), tn, n, m, k_mode, torch.as_tensor(rfe),
                                 torch.as_tensor(bb.x), torch.as_tensor(bb.w),
-                                torch.as_tensor(poses), 4, H)
+                                torch.as_tensor(poses), 4, H, sg.SELECT_POSES)
             np.testing.assert_array_equal(t["select"].numpy(), d["select"])
             np.testing.assert_allclose(t["gamma"].numpy(), gamma, atol=1e-12)
             np.testing.assert_allclose(t["logk"].numpy(), d["logk"], rtol=1e-8, atol=1e-8)
@@ -275,7 +275,8 @@ def test_checkpoint_round_trip(tmp_path):
     with torch.no_grad():
         d = net.outputs(f_std, norm, torch.as_tensor(
             feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
-            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes)
+            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes,
+            src.select_poses)
     np.testing.assert_allclose(d["gamma"].numpy(), a.gamma, atol=2e-6)
     np.testing.assert_allclose(d["logk"].numpy(), np.log(a.k), atol=2e-5)
     np.testing.assert_allclose(d["log_omega_hat"].numpy(), a.log_omega_hat, atol=2e-5)
@@ -385,6 +386,95 @@ def test_threaded_prediction_equals_one_thread(monkeypatch):
     monkeypatch.setenv("PRBDM_THREADS", "zero")
     with pytest.raises(BadInput, match="PRBDM_THREADS"):
         sg.default_threads()
+
+
+def test_gauss_select_poses():
+    """Candidates are compared on the poses nearest the 2-point Gauss-Legendre nodes."""
+    assert sg.gauss_select_poses(1) == [0] and sg.gauss_select_poses(2) == [0, 1]
+    assert sg.gauss_select_poses(5) == [1, 3] and sg.gauss_select_poses(6) == [1, 4]
+    assert sg.gauss_select_poses(9) == [2, 6] and sg.gauss_select_poses(14) == [3, 10]
+    # two nodes integrate a smooth loss over the poses far better than the end points
+    t = np.linspace(0, 1, 6)
+    f = 1 + 3 * t ** 2                          # e.g. a loss growing with the pose angle
+    assert abs(f[[1, 4]].mean() - f.mean()) < 0.3 * abs(f[[0, -1]].mean() - f.mean())
+
+
+def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path):
+    """A checkpoint written before ensembles (no members, no select_poses) loads as one network
+    that compares candidates on the first and last poses, as it was trained and measured."""
+    tensors, meta = sg._read_safetensors(tiny_checkpoint())
+    meta = json.loads(meta["prbdm"])
+    for key in ("members", "select_poses"):
+        meta["network"].pop(key)
+    old = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "old.safetensors", tensors, {
+        k: v for k, v in meta.items() if k not in ("format", "format_version")}))
+    assert old.n_members == 1 and old.select_poses == sg.SELECT_POSES
+    new = sg.load_checkpoint(tiny_checkpoint())
+    assert new.select_poses == sg.gauss_select_poses(len(new.poses))
+    beams = [random_beam(6, i) for i in range(30)]
+    a, b = old.predict(beams, warn=False), new.predict(beams, warn=False)
+    np.testing.assert_array_equal(a.log_omega_hat, b.log_omega_hat)
+    np.testing.assert_array_equal(a.extra["gamma_candidates"], b.extra["gamma_candidates"])
+
+
+def test_ensemble_checkpoint(tmp_path):
+    """Two members saved as one checkpoint: the candidates of both, side by side, the mean
+    frequency prediction; NumPy inference equals the torch ensemble."""
+    src = sg.load_checkpoint(tiny_checkpoint())
+    meta = dict(src.metadata)
+    net_meta = meta["network"]
+    tensors, _ = sg._read_safetensors(tiny_checkpoint())
+    torch.manual_seed(0)
+    members = []
+    for j in range(2):
+        net = sg.SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
+                              width=net_meta["width"], depth=net_meta["depth"],
+                              k_mode=src.k_mode, hypotheses=src.member_hypotheses)
+        net.load_weights(tensors)
+        if j:                                 # a second, different member
+            with torch.no_grad():
+                for prm in net.parameters():
+                    prm.add_(0.05 * torch.randn_like(prm))
+        members.append(net)
+    ens = sg.SurrogateEnsemble(members)
+
+    def save(name, weights, n_members):
+        meta["network"] = {**net_meta, "members": n_members}
+        return sg.load_checkpoint(sg.save_checkpoint(tmp_path / name, weights, {
+            k: v for k, v in meta.items() if k not in ("format", "format_version")}))
+
+    loaded = save("ens.safetensors", ens.weights(), 2)
+    assert loaded.n_members == 2 and loaded.hypotheses == 2 * src.member_hypotheses
+    singles = [save(f"m{j}.safetensors", net.weights(), 1) for j, net in enumerate(members)]
+    beams = [random_beam(6, i) for i in range(25)]
+    p = loaded.predict(beams, warn=False)
+    q = [s.predict(beams, warn=False) for s in singles]
+    np.testing.assert_allclose(p.extra["gamma_candidates"], np.concatenate(
+        [x.extra["gamma_candidates"] for x in q], 1), atol=1e-12)
+    np.testing.assert_allclose(p.log_omega_hat, (q[0].log_omega_hat + q[1].log_omega_hat) / 2,
+                               atol=1e-6)
+    # the kept candidate is the one whose PRBDM best matches the predicted frequencies
+    bb = sg.BeamBatch.from_beams(beams)
+    lam_p = np.exp(2 * p.log_omega_hat[:, :src.modes])
+    cand = p.extra["gamma_candidates"]
+    H, P = cand.shape[1], len(loaded.select_poses)
+    mu = sg.prbdm_eigenvalues(np.repeat(bb.x, H, 0), np.repeat(bb.w, H, 0),
+                              cand.reshape(-1, 3), src.poses[loaded.select_poses])
+    _, loss = sg._candidate_losses(mu.reshape(len(beams), H, P, 2)[..., :src.modes], lam_p)
+    np.testing.assert_array_equal(p.extra["selected"], loss.argmin(1))
+    assert (p.extra["selected"] >= src.member_hypotheses).any()   # both members contribute
+    # the torch ensemble (used in training) gives the same
+    feats = sg.features(bb, src.feature_spec)
+    f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
+    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
+    rfe0 = 2 * src.feature_spec.cells
+    with torch.no_grad():
+        d = ens.outputs(f_std, norm, torch.as_tensor(
+            feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
+            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes,
+            loaded.select_poses)
+    np.testing.assert_array_equal(d["select"].numpy(), p.extra["selected"])
+    np.testing.assert_allclose(d["gamma"].numpy(), p.gamma, atol=2e-6)
 
 
 def test_physics_training_on_a_truth_only_set(tmp_path):

@@ -48,16 +48,21 @@ json_out = ""             # also write the results as JSON to this file
 # -------------------------------------------------------------------------------------------
 
 
+def _fail(message):
+    """Bad input: one line on stderr, exit status 2 (as the prbdm commands)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
 def _parse(argv):
     cfg = {k: v for k, v in globals().items()
            if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
     for arg in argv:
         if not arg.startswith("--") or "=" not in arg:
-            sys.exit(f"evaluate_surrogate: arguments are --name=value, got {arg!r}")
+            _fail(f"evaluate_surrogate: arguments are --name=value, got {arg!r}")
         key, val = arg[2:].split("=", 1)
         key = key.replace("-", "_")
         if key not in cfg:
-            sys.exit(f"evaluate_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
+            _fail(f"evaluate_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
         globals()[key] = val if isinstance(cfg[key], str) else type(cfg[key])(ast.literal_eval(val))
     return {k: globals()[k] for k in cfg}
 
@@ -80,11 +85,11 @@ _a, _b = dict(manifest["spec"]), dict(meta["dataset"]["spec"])
 for _key in _ALLOWED:
     _a.pop(_key, None), _b.pop(_key, None)
 if ds.spec_difference(_a, _b) is not None:
-    sys.exit(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
+    _fail(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
              f"(field {ds.spec_difference(_a, _b)})")
 other_seed = manifest["spec"]["seed"] != meta["dataset"]["spec"]["seed"]
 if manifest["spec"]["starts"] == 0:
-    sys.exit(f"evaluate_surrogate: data set {data} is truth-only (no optimised fits to compare "
+    _fail(f"evaluate_surrogate: data set {data} is truth-only (no optimised fits to compare "
              "with); make one with --starts 64 (the default)")
 table = ds.read_table(data, columns=["index", "x", "half_width", "thickness", "omega_truth",
                                      "gamma", "k", "loss_percent", "fit_time_s"],
@@ -97,7 +102,7 @@ mask = {"test": test_mask, "new": new_mask, "heldout": test_mask | new_mask}[spl
 table = table[mask].reset_index(drop=True)
 B = len(table)
 if B == 0:
-    sys.exit(f"evaluate_surrogate: no {split} beams in {data}")
+    _fail(f"evaluate_surrogate: no {split} beams in {data}")
 n, r = sur.joints, sur.modes
 material = Material(**manifest["spec"]["beam"]["material"])
 batch = sg.BeamBatch.from_table(table, material)

@@ -20,7 +20,7 @@ What it does:
    - ``combined``: label loss + ``phys_weight`` * physics loss;
    with AdamW, the learning rate halved when the validation PRBDM loss stalls, and early stopping
    on it (the best epoch's weights are kept);
-4. keeps the mode with the lowest mean validation PRBDM loss, and records all modes' validation
+4. keeps the mode with the lowest validation PRBDM loss (mean or median, ``select``), and records all modes' validation
    metrics in the checkpoint metadata;
 5. writes the checkpoint, loads it back through :func:`prbdm.surrogate.load_checkpoint` (the
    NumPy inference path that ``prbdm predict`` uses) and measures it on the test split: the
@@ -51,6 +51,9 @@ k_mode = "projection"                # SCFs: 'projection' (least squares against
                                      # truth frequencies) or 'direct' (log k regressed)
 hypotheses = 4                       # candidate segmentations per beam; the one whose PRBDM best
                                      # matches the predicted truth frequencies is kept
+members = 1                          # networks trained side by side, member j from seed + j, in
+                                     # parallel processes (one per member): an ensemble whose
+                                     # candidates are pooled (prbdm.surrogate.combine_members)
 wta_eps = 0.05                       # candidates' losses: (1 - eps) * best + eps * mean
 init_gamma = ""                      # start of candidate 0, comma-separated n+1 values (default:
                                      # the mean fitted label; equal links for a truth-only set)
@@ -60,11 +63,19 @@ weight_decay = 1e-5
 max_epochs = 400
 patience = 80                        # epochs without a better validation loss before stopping
 lr_patience = 20                     # epochs without improvement before halving the lr
+lr_schedule = "plateau"              # plateau: halve after lr_patience epochs without a better
+                                     # validation loss; cosine: lr * (1 + cos(pi e / max_epochs)) / 2
+                                     # at epoch e, the same for every run of the same length
 max_minutes = 9.0                    # wall-clock limit per mode
 phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
 freq_weight = 1.0                    # weight of the frequency head's label term
 vp_weight = 1.0                      # physics: + vp_weight * the loss of the predicted gamma with
                                      # its best SCFs (variable projection on the truth, as the fit)
+loss_power = 1.0                     # physics: each beam's loss L [%] enters as L**p / p (p = 1: the
+                                     # mean loss; p = 0: log L, every beam's relative improvement
+                                     # counts alike, which moves the median rather than the tail)
+select = "mean"                      # validation statistic of the PRBDM loss that drives the lr
+                                     # schedule, early stopping and the choice of mode: mean, median
 cells = 16                           # feature cells along x / L
 rfe_segments = 96                    # links of the rigid-finite-element frequency estimate
 rfe_coarse = 16                      # > 0: that estimate by Rayleigh-Ritz from a chain of this
@@ -74,16 +85,21 @@ quiet = False                        # only the summary lines
 # -------------------------------------------------------------------------------------------
 
 
+def _fail(message):
+    """Bad input: one line on stderr, exit status 2 (as the prbdm commands)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
 def _parse_overrides(argv):
     cfg = {k: v for k, v in globals().items()
            if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
     for arg in argv:
         if not arg.startswith("--") or "=" not in arg:
-            sys.exit(f"train_surrogate: arguments are --name=value, got {arg!r}")
+            _fail(f"train_surrogate: arguments are --name=value, got {arg!r}")
         key, val = arg[2:].split("=", 1)
         key = key.replace("-", "_")
         if key not in cfg:
-            sys.exit(f"train_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
+            _fail(f"train_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
         default = cfg[key]
         if isinstance(default, bool):
             new = val.lower() in ("1", "true", "yes", "on")
@@ -93,12 +109,16 @@ def _parse_overrides(argv):
             try:
                 new = type(default)(ast.literal_eval(val))
             except (ValueError, SyntaxError):
-                sys.exit(f"train_surrogate: --{key} must be a {type(default).__name__}, got {val!r}")
+                _fail(f"train_surrogate: --{key} must be a {type(default).__name__}, got {val!r}")
         globals()[key] = new
     return {k: globals()[k] for k in cfg}
 
 
 config = _parse_overrides(sys.argv[1:])
+if select not in ("mean", "median"):
+    _fail(f"train_surrogate: --select must be mean or median, got {select!r}")
+if members < 1:
+    _fail(f"train_surrogate: --members must be >= 1, got {members}")
 
 import torch  # noqa: E402  (after the configuration, as in nanoGPT)
 
@@ -129,7 +149,7 @@ log("config " + json.dumps(config))
 manifest = ds.read_manifest(data)
 spec = manifest["spec"]
 if spec["law"] != "beam":
-    sys.exit(f"train_surrogate: the surrogate supports the 'beam' law only, data set has "
+    _fail(f"train_surrogate: the surrogate supports the 'beam' law only, data set has "
              f"{spec['law']!r}")
 columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
            "loss_percent", "fit_time_s", "gamma_spread"]
@@ -140,7 +160,7 @@ if max_index < 0:
 table = table[table["index"] <= max_index].reset_index(drop=True)
 N = len(table)
 if N < 10:
-    sys.exit(f"train_surrogate: need at least 10 ok records, found {N}")
+    _fail(f"train_surrogate: need at least 10 ok records, found {N}")
 n = spec["joints"]
 r = min(n, spec["modes"])
 poses = model.make_poses(spec["poses"], n)
@@ -161,7 +181,7 @@ rfe0 = 2 * cells
 labelled = spec["starts"] > 0
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not labelled and set(run_modes) - {"physics"}:
-    sys.exit(f"train_surrogate: --modes: the data set {data} is truth-only (starts 0, no fitted "
+    _fail(f"train_surrogate: --modes: the data set {data} is truth-only (starts 0, no fitted "
              f"labels); only 'physics' can train on it, got {modes!r}")
 if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
@@ -220,6 +240,13 @@ def physics_loss(rows, gamma, logk, mu=None):
     return model.loss_percent(lam, lam_hat[rows], r)
 
 
+def transform(loss):
+    """Per-beam loss [%] as it enters the training objective (``loss_power``)."""
+    if loss_power == 0:
+        return torch.log(loss.clamp_min(1e-6))
+    return loss.clamp_min(1e-12) ** loss_power / loss_power
+
+
 def wta(values):
     """Relaxed winner-takes-all over the candidates (B, H) -> (B,)."""
     if values.shape[1] == 1:
@@ -265,7 +292,7 @@ def evaluate(net, rows):
 Net = sg.SurrogateNet
 
 
-def make_net():
+def make_net(member=0):
     net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
               hypotheses=hypotheses)
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
@@ -274,7 +301,7 @@ def make_net():
         if init_gamma:
             g0 = torch.tensor([float(v) for v in init_gamma.split(",")])
             if g0.shape != (n + 1,) or not bool((g0 > sg.GAMMA_MIN).all()):
-                sys.exit(f"train_surrogate: --init_gamma: need {n + 1} values > {sg.GAMMA_MIN}")
+                _fail(f"train_surrogate: --init_gamma: need {n + 1} values > {sg.GAMMA_MIN}")
             g = g0 - sg.GAMMA_MIN
         elif labelled:
             g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
@@ -286,7 +313,7 @@ def make_net():
         long_root[0] = 0.7
         starts = [g / g.sum(), torch.as_tensor(sg._uniform_gamma(n), dtype=torch.float32),
                   long_root]
-        gen0 = torch.Generator().manual_seed(seed + 1)
+        gen0 = torch.Generator().manual_seed(seed + member + 1)
         while len(starts) < hypotheses:
             starts.append(torch.rand(n + 1, generator=gen0) + 0.2)
         for h in range(hypotheses):
@@ -294,13 +321,21 @@ def make_net():
     return net
 
 
-def train(mode):
-    torch.manual_seed(seed)
-    np.random.seed(seed)
-    net = make_net()
+def train(mode, member=0):
+    """Train one network from seed + member; returns it and a summary of its run."""
+    torch.manual_seed(seed + member)
+    np.random.seed(seed + member)
+    label = mode if members == 1 else f"{mode}[{member}]"
+    net = make_net(member)
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=weight_decay)
-    sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
-    gen = torch.Generator().manual_seed(seed)
+    if lr_schedule == "cosine":
+        sched = torch.optim.lr_scheduler.LambdaLR(
+            opt, lambda e: 0.5 * (1 + math.cos(math.pi * min(e, max_epochs) / max_epochs)))
+    elif lr_schedule == "plateau":
+        sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
+    else:
+        _fail(f"train_surrogate: --lr_schedule must be plateau or cosine, got {lr_schedule!r}")
+    gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
     t0 = time.perf_counter()
@@ -313,8 +348,8 @@ def train(mode):
             d = outputs(net, rows)
             lg, lk, lc = label_terms(rows, d)
             if mode in ("physics", "combined"):
-                phys = (physics_loss(rows, d["gamma"], d["logk"], d["mu"]).mean()
-                        + vp_weight * vp_loss(rows, d).mean()).float()
+                phys = (transform(physics_loss(rows, d["gamma"], d["logk"], d["mu"])).mean()
+                        + vp_weight * transform(vp_loss(rows, d)).mean()).float()
             if mode == "label":
                 loss = lg + lk + freq_weight * lc
             elif mode == "physics":
@@ -322,45 +357,72 @@ def train(mode):
             elif mode == "combined":
                 loss = lg + lk + freq_weight * lc + phys_weight * phys
             else:
-                sys.exit(f"train_surrogate: unknown mode {mode!r} (label, physics, combined)")
+                _fail(f"train_surrogate: unknown mode {mode!r} (label, physics, combined)")
             opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
             opt.step()
             tot += float(loss.detach()) * len(rows)
         val = evaluate(net, split["val"])
-        sched.step(val["loss_mean"])
-        if val["loss_mean"] < best:
-            best, best_epoch, stale = val["loss_mean"], epoch, 0
+        score = val["loss_" + select]
+        sched.step(score) if lr_schedule == "plateau" else sched.step()
+        if score < best:
+            best, best_epoch, stale = score, epoch, 0
             best_state = {k: v.clone() for k, v in net.state_dict().items()}
         else:
             stale += 1
         elapsed = time.perf_counter() - t0
-        log(f"{mode:8s} epoch {epoch:4d}  train {tot / len(perm):.5f}  val loss mean "
+        log(f"{label:8s} epoch {epoch:4d}  train {tot / len(perm):.5f}  val loss mean "
             f"{val['loss_mean']:.4f} % median {val['loss_median']:.4f} % p95 {val['loss_p95']:.4f} "
             f"%  freq err median {max(val['freq_err_median']) * 100:.3f} %  lr "
             f"{opt.param_groups[0]['lr']:.2g}  {elapsed:.0f} s", always=False)
         if stale >= patience or elapsed > 60 * max_minutes:
             break
     net.load_state_dict(best_state)
-    summary = {"mode": mode, "best_epoch": best_epoch, "epochs": epoch,
+    summary = {"mode": mode, "seed": seed + member, "best_epoch": best_epoch, "epochs": epoch,
                "time_s": time.perf_counter() - t0, "stopped": "patience" if stale >= patience
                else ("time limit" if epoch < max_epochs else "max_epochs"),
                "val": evaluate(net, split["val"]), "train": evaluate(net, split["train"])}
     v = summary["val"]
-    log(f"== {mode}: best epoch {best_epoch}/{epoch} ({summary['stopped']}), "
+    log(f"== {label}: best epoch {best_epoch}/{epoch} ({summary['stopped']}), "
         f"{summary['time_s']:.0f} s; val PRBDM loss mean {v['loss_mean']:.4f} % median "
         f"{v['loss_median']:.4f} % p95 {v['loss_p95']:.4f} %; freq err median per mode "
         f"{[round(e * 100, 3) for e in v['freq_err_median']]} %")
     return net, summary
 
 
+def _train_member(job):
+    # runs in a forked process: send back plain arrays, not the module
+    mode, member = job
+    net, summary = train(mode, member)
+    return net.weights(), summary
+
+
+def train_ensemble(mode):
+    """``members`` networks in parallel processes (fork: each inherits the data), then the
+    ensemble's own validation and training metrics."""
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(members) as pool:
+        done = pool.map(_train_member, [(mode, j) for j in range(members)])
+    nets_ = [make_net().load_weights(w) for w, _ in done]
+    ens = sg.SurrogateEnsemble(nets_)
+    summary = {"mode": mode, "members": [s for _, s in done],
+               "time_s": max(s["time_s"] for _, s in done),
+               "val": evaluate(ens, split["val"]), "train": evaluate(ens, split["train"])}
+    v = summary["val"]
+    log(f"== {mode} ensemble of {members}: val PRBDM loss mean {v['loss_mean']:.4f} % median "
+        f"{v['loss_median']:.4f} % p95 {v['loss_p95']:.4f} %; freq err median per mode "
+        f"{[round(e * 100, 3) for e in v['freq_err_median']]} %")
+    return ens, summary
+
+
 results = {}
 nets = {}
 for mode in run_modes:
-    nets[mode], results[mode] = train(mode)
-selected = min(results, key=lambda k: results[k]["val"]["loss_mean"])
-log(f"selected mode: {selected} (lowest mean validation PRBDM loss)")
+    nets[mode], results[mode] = train(mode) if members == 1 else train_ensemble(mode)
+selected = min(results, key=lambda k: results[k]["val"]["loss_" + select])
+log(f"selected mode: {selected} (lowest {select} validation PRBDM loss)")
 net = nets[selected]
 train_time = time.perf_counter() - t_start
 
@@ -385,7 +447,8 @@ meta = {
                                                 if spec["truth"] == "plate" else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
-                "k_mode": k_mode, "hypotheses": hypotheses,
+                "k_mode": k_mode, "hypotheses": hypotheses, "members": members,
+                "select_poses": sg.gauss_select_poses(m),
                 "parameters": int(sum(p.numel() for p in net.parameters())),
                 "outputs": "see prbdm.surrogate.decode_numpy"},
     "dataset": {"path": str(Path(data).resolve()), "spec": spec, "size": N,
@@ -396,8 +459,10 @@ meta = {
                 "dataset_git_commit": manifest.get("git_commit"),
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
                           **{k: int(len(v)) for k, v in split.items()}}},
-    "training": {"config": config, "seeds": {"torch": seed, "numpy": seed, "batch_order": seed},
-                 "selected_mode": selected, "selection": "lowest mean validation PRBDM loss",
+    "training": {"config": config,
+                 "seeds": {"torch": seed, "numpy": seed, "batch_order": seed,
+                           "members": [seed + j for j in range(members)]},
+                 "selected_mode": selected, "selection": f"lowest {select} validation PRBDM loss",
                  "comparison": results, "time_s": train_time, "torch_threads": threads},
     "versions": versions, "git_commit": ds._git_commit(),
 }
