@@ -1,7 +1,7 @@
 """Surrogate speed: batched beams per second through the Python API, by thread count, and the
 wall time of one `prbdm predict` command with its start-up.
 
-    python benchmarks/bench_predict.py [--beams 10000] [--threads 1,2] [--repeat 3]
+    python benchmarks/bench_predict.py [--beams 10000] [--threads 1,2] [--repeat 3] [--members all,1]
 
 What is timed is ``Surrogate.predict(beams)`` from a list of :class:`prbdm.Beam` to gamma, k, the
 PRBDM frequencies at every pose and the truth frequencies (features, network, candidate choice,
@@ -56,14 +56,20 @@ def main():
     ap.add_argument("--threads", default="1,2", help="comma list (default 1,2)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--checkpoint", default=None, help="default: the shipped beam-n4")
+    ap.add_argument("--members", default="all",
+                    help="comma list of ensemble sizes to time (Surrogate.with_members; default: "
+                         "all members)")
     a = ap.parse_args()
-    sur = sg.load_checkpoint(a.checkpoint or sg.default_checkpoint(4, "beam"))
+    full = sg.load_checkpoint(a.checkpoint or sg.default_checkpoint(4, "beam"))
     beams = [random_beam(12345, i) for i in range(a.beams)]
-    print(f"checkpoint {sur.name}; {a.beams} random beams (seed 12345); {os.cpu_count()} cores")
-    print(f"{'threads':>7}  {'beams/s wall':>12}  {'beams per CPU-s':>15}")
-    for th in [int(t) for t in a.threads.split(",")]:
-        w, c = rate(sur, beams, th, a.repeat)
-        print(f"{th:>7}  {w:>12,.0f}  {c:>15,.0f}")
+    print(f"checkpoint {full.name} ({full.n_members} members); {a.beams} random beams (seed "
+          f"12345); {os.cpu_count()} cores")
+    print(f"{'members':>7}  {'threads':>7}  {'beams/s wall':>12}  {'beams per CPU-s':>15}")
+    for k in a.members.split(","):
+        sur = full if k == "all" else full.with_members(int(k))
+        for th in [int(t) for t in a.threads.split(",")]:
+            w, c = rate(sur, beams, th, a.repeat)
+            print(f"{sur.n_members:>7}  {th:>7}  {w:>12,.0f}  {c:>15,.0f}")
     best, med = cli_seconds(a.repeat)
     print(f"`prbdm predict BEAM --joints 4 --json`: {best:.2f} s wall best, {med:.2f} s median, "
           "with interpreter start-up")

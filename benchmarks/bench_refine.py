@@ -2,7 +2,7 @@
 
     python benchmarks/bench_refine.py --data data/beam-n4-seed1 --beams 200 --batch 8
     python benchmarks/bench_refine.py --data data/beam-n4-seed1 --beams 200 --batch 40 \
-        --variants "fit;default,30"
+        --variants "fit;default,15"
 
 On ``--beams`` beams drawn (seed 0) from a labelled data set of the checkpoint's spec, the full
 multistart fit is re-run and each refinement variant is run, all with ``--batch`` beams per
@@ -12,9 +12,10 @@ share of beams within 10 %, the ratio of the medians, and the time per beam besi
 fit's (one call's time divided by its beams).
 
 Variants (``name,iterations``, separated by ``;``): ``fit`` (the re-run 64-start fit, always
-first), ``default`` (the network's candidates + the fit's four fixed starts,
-:func:`prbdm.fit.refine_starts`), ``two_fixed`` (candidates + the rigid-finite-element and
-equal-link starts only: the earlier default), ``fixed`` (the four fixed starts alone, no network),
+first), ``default`` (the network's best ``REFINE_CANDIDATES`` candidates + the fit's four fixed
+starts, :func:`prbdm.fit.refine_starts`), ``all`` (all its candidates + the four fixed starts),
+``two_fixed`` (all candidates + the rigid-finite-element and equal-link starts only: an earlier
+default), ``fixed`` (the four fixed starts alone, no network),
 ``drawnK`` (``default`` + K seeded draws of the fit's start design), ``topJ`` (the network's J
 best candidates by their loss against its predicted frequencies + the four fixed starts) and
 ``topJdrawnK`` (that + K draws).
@@ -29,10 +30,11 @@ import torch
 
 from prbdm import dataset as ds
 from prbdm import surrogate as sg
-from prbdm.fit import FIXED_STARTS, fit_many, gamma_from_z, refine_starts, start_points
+from prbdm.fit import (FIXED_STARTS, REFINE_CANDIDATES, fit_many, gamma_from_z, refine_starts,
+                       start_points)
 from prbdm.geometry import Material
 
-DEFAULT_VARIANTS = "fit;two_fixed,20;default,20;default,25;default,30;fixed,30;drawn8,30;drawn16,30"
+DEFAULT_VARIANTS = "fit;all,15;all,20;default,10;default,15;default,20;default,30;fixed,15;top2,15"
 
 
 def main():
@@ -74,6 +76,8 @@ def main():
         if name == "fit":
             starts, label = None, "optimised fit re-run (64 starts)"
         elif name == "default":
+            starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
+        elif name == "all":
             starts = refine_starts(cand)
         elif name == "two_fixed":
             starts = np.concatenate([cand, np.broadcast_to(fixed[:2], (B, 2, n + 1))], 1)
@@ -82,7 +86,7 @@ def main():
         elif name.startswith(("drawn", "top")):
             top, _, k = name.removeprefix("top").partition("drawn")
             k = int(k or 0)
-            keep = int(top) if name.startswith("top") else None
+            keep = int(top) if top else REFINE_CANDIDATES
             drawn = gamma_from_z(start_points(n, FIXED_STARTS + k, 0)).numpy()[FIXED_STARTS:]
             starts = np.concatenate([refine_starts(pred.ranked_candidates(keep)),
                                      np.broadcast_to(drawn, (B, k, n + 1))], 1)

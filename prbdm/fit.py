@@ -44,7 +44,8 @@ from .errors import BadInput
 from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, eigenvalues_unit_k,
                     frequency_errors, make_poses, uniform_gamma)
 
-__all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "gamma_from_z",
+__all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDIDATES",
+           "REFINE_ITER", "gamma_from_z",
            "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS"]
 
 DEFAULT_STARTS = 64
@@ -486,13 +487,22 @@ def _result(beam, bt, bi, z, poses, omega_truth, lam_hat, r, law, S, near, sprea
                      seed=seed, best_loss_percent=best)
 
 
+#: a network-then-refined fit: the network's best REFINE_CANDIDATES candidates
+#: (``Prediction.ranked_candidates``) and the four fixed starts, REFINE_ITER iterations. Measured
+#: on 200 held-out beams with the two-member beam-n4 (docs/surrogate.md §5): a median 1.06 times
+#: the optimised loss at 1/10.8 of its time in batches of 8 beams, 1/18 in batches of 40, 1/7.7
+#: one beam at a time (all 8 candidates, 12 starts: 1.05 at 1/8.6; 20 iterations: 1.03 at 1/9.1)
+REFINE_CANDIDATES = 4
+REFINE_ITER = 15
+
+
 def refine_starts(gamma) -> np.ndarray:
     """Start points for a short refinement: the given segmentations (B, n+1) or (B, H, n+1), e.g.
     a network's candidates, followed by the fit's four fixed starts (rigid-finite-element, equal
     links, the two long roots of :func:`start_points`): (B, H + 4, n+1), for
     ``fit_many(..., init_gamma=...)``. Measured on 200 held-out beams (docs/surrogate.md): with
-    the two long-root starts added, 20 iterations from a network's 4 candidates end a median 1.16
-    times the optimised loss instead of 1.29, at 1.1 times the time per beam."""
+    the two long-root starts added, 20 iterations from a network's 4 candidates ended a median
+    1.16 times the optimised loss instead of 1.29 (the single-network beam-n4 of 2026-12-02)."""
     g = np.asarray(gamma, dtype=np.float64)
     g = g[:, None, :] if g.ndim == 2 else g
     n = g.shape[-1] - 1

@@ -14,8 +14,8 @@ Howell 1R, Su 3R    classical static PRBMs with their own springs (:mod:`prbdm.c
 fit, S starts       :func:`prbdm.fit.fit_many` to the beam truth (S = 8, 16, 32, 64)
 fit to plate        the same, 64 starts, to the plate truth
 network             :func:`prbdm.surrogate.Surrogate.predict` (checkpoint ``beam-n4``)
-network + refined   ``fit_many`` from the network's candidate gammas and the fit's four fixed
-                    starts, 30 iterations, the best kept (as ``training/evaluate_surrogate.py``)
+network + refined   ``fit_many`` from the network's best 4 candidate gammas and the fit's four
+                    fixed starts, 15 iterations, the best kept (``prbdm.fit.REFINE_*``)
 network (direct)    the network's own prediction of the beam-truth frequencies
 ==================  ==========================================================================
 
@@ -48,7 +48,6 @@ __all__ = ["ReportConfig", "run_report", "write_report", "render_markdown", "hel
 
 JOINTS, MODES = 4, 4
 DEFAULT_STARTS = (8, 16, 32, 64)
-REFINE_ITER = 30                  # as `prbdm compare --refine-iter` (docs/surrogate.md §5)
 
 
 @dataclass
@@ -147,7 +146,7 @@ def run_report(cfg: ReportConfig) -> dict:
     torch.set_num_threads(1)    # small batched problems: one thread is faster on this machine
     from . import classical as cl
     from . import surrogate as sg
-    from .fit import fit_many, refine_starts
+    from .fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
     from .model import eigenvalues, uniform_gamma
     from .truth import bending_frequencies
 
@@ -263,8 +262,7 @@ def run_report(cfg: ReportConfig) -> dict:
     t_net_single = float(np.mean(ts)) if ts else None
     add("network", "network", pred.omega, t_net, JOINTS, note=f"{sur.name}, batched",
         single_s=t_net_single, extra={"ood_beams": int(pred.ood.any(1).sum())})
-    cand = pred.extra.get("gamma_candidates")
-    starts = refine_starts(pred.gamma if cand is None else cand)
+    starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
     H = starts.shape[1]
     t0 = time.perf_counter()
     best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=starts,
@@ -278,8 +276,9 @@ def run_report(cfg: ReportConfig) -> dict:
         ts.append(time.perf_counter() - t0)
     add("refined", f"network + refined ({H} starts, {REFINE_ITER} it.)",
         np.stack([x.omega for x in best]), t_net + t_ref, JOINTS, needs="beam",
-        note="fit_many from the network's candidate gammas and the fit's four fixed starts "
-             "(prbdm.fit.refine_starts); all beams in one batch; time = network + refinement",
+        note="fit_many from the network's best candidate gammas (REFINE_CANDIDATES) and the "
+             "fit's four fixed starts (prbdm.fit.refine_starts); all beams in one batch; time = "
+             "network + refinement",
         single_s=(t_net_single + float(np.mean(ts))) if ts else None)
     add("direct", "network (direct frequencies)", pred.omega_truth[:, :r], t_net, None,
         note="the network's prediction of the beam-truth frequencies (same call as network)",

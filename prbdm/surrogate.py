@@ -44,6 +44,7 @@ Read in this order:
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import math
@@ -581,14 +582,22 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
         lam_p = np.exp(2 * log_omega_hat[:, :r])
         rows = np.arange(B)
         sel = np.zeros(B, dtype=np.int64)
-        if H > 1:       # choose on the first and last poses only (cheap), then solve all poses
+        if H > 1:       # choose on a few poses (cheap), then solve the kept one on the others
+            select_poses = [int(i) % len(poses) for i in select_poses]
             mu_all = prbdm_eigenvalues(np.repeat(x, H, 0), np.repeat(w, H, 0),
                                        gamma_all.reshape(B * H, n1), poses[select_poses])
             mu_all = mu_all.reshape(B, H, *mu_all.shape[1:])
             res["candidate_loss"] = _candidate_losses(mu_all[..., :r], lam_p)[1]
             sel = np.argmin(res["candidate_loss"], axis=1)
-        gamma = gamma_all[rows, sel]
-        mu = prbdm_eigenvalues(x, w, gamma, poses)
+            gamma = gamma_all[rows, sel]
+            rest = [i for i in range(len(poses)) if i not in select_poses]
+            mu = np.empty((B, len(poses), joints))
+            mu[:, select_poses] = mu_all[rows, sel]
+            if rest:
+                mu[:, rest] = prbdm_eigenvalues(x, w, gamma, poses[rest])
+        else:
+            gamma = gamma_all[rows, sel]
+            mu = prbdm_eigenvalues(x, w, gamma, poses)
         kp = _project_k(mu[..., :r], lam_p)
         res.update(gamma=gamma, mu=mu, select=sel, logk=np.log(kp) + K_DELTA_SCALE * kh)
     return res
@@ -985,6 +994,18 @@ class Surrogate:
     def features(self, beams) -> np.ndarray:
         batch = beams if isinstance(beams, BeamBatch) else BeamBatch.from_beams(beams)
         return features(batch, self.feature_spec)
+
+    def with_members(self, count: int) -> "Surrogate":
+        """The same checkpoint using only its first ``count`` ensemble members: fewer candidates
+        to compare, faster, less accurate (docs/surrogate.md §5 measures both)."""
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or \
+                not 1 <= count <= self.n_members:
+            raise BadInput(f"members: must be an integer in [1, {self.n_members}], got {count!r}")
+        other = copy.copy(self)
+        other.members = self.members[:count]
+        other.n_members = int(count)
+        other.hypotheses = self.member_hypotheses * other.n_members
+        return other
 
     def forward(self, feats: np.ndarray, batch: "BeamBatch | None" = None) -> dict:
         """The decoded outputs (see :func:`decode_numpy`: gamma, logk, log_omega_hat, mu, ...)

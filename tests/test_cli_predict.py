@@ -181,6 +181,19 @@ def test_compare_runs(capsys, beam_file):
                "trained for 2 joints")
 
 
+def test_compare_refines_as_the_library_default():
+    """`prbdm compare`'s --refine-iter default is prbdm.fit.REFINE_ITER (written out in the
+    parser so that a bad flag fails before torch is imported)."""
+    import argparse
+
+    from prbdm.commands import compare
+    from prbdm.fit import REFINE_ITER
+
+    parser = argparse.ArgumentParser()
+    compare.add_arguments(parser)
+    assert parser.get_default("refine_iter") == REFINE_ITER
+
+
 def test_predict_output_exports(capsys, beam_file, tmp_path):
     """`prbdm predict --json` feeds `prbdm export --from`: the exported chain is the network's
     PRBDM (the NumPy PRBDM of predict against the torch model of export), and a prediction made

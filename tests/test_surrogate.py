@@ -512,5 +512,30 @@ def test_evaluate_surrogate_script(tmp_path):
     assert res["beams"] == 1 and res["test_beams"] == 1
     for key in ("network", "fit", "refined", "refined_candidates", "refit", "throughput"):
         assert key in res, key
-    assert res["refined_candidates"]["starts"] == sg.load_checkpoint(tiny_checkpoint()).hypotheses + 4
+    from prbdm.fit import REFINE_CANDIDATES
+
+    hyp = sg.load_checkpoint(tiny_checkpoint()).hypotheses
+    assert res["refined_candidates"]["starts"] == min(hyp, REFINE_CANDIDATES) + 4
     assert res["refit"]["starts"] == 2 and res["network"]["loss_median"] >= 0
+
+
+def test_with_members_uses_the_first_members(tmp_path):
+    """``with_members(k)``: the first k members of an ensemble, as their own checkpoint would
+    predict; bad counts are refused."""
+    src = sg.load_checkpoint(tiny_checkpoint())
+    tensors, meta = sg._read_safetensors(tiny_checkpoint())
+    meta = json.loads(meta["prbdm"])
+    meta.pop("format"), meta.pop("format_version")
+    ens = {**{f"members.0.{k}": v for k, v in tensors.items()},
+           **{f"members.1.{k}": v * 1.01 for k, v in tensors.items()}}
+    meta["network"] = {**meta["network"], "members": 2}
+    two = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "two.safetensors", ens, meta))
+    one = two.with_members(1)
+    assert (one.n_members, one.hypotheses, two.n_members) == (1, src.hypotheses, 2)
+    beams = [random_beam(6, i) for i in range(9)]
+    a, b = one.predict(beams, warn=False), src.predict(beams, warn=False)
+    np.testing.assert_array_equal(a.gamma, b.gamma)
+    np.testing.assert_array_equal(a.k, b.k)
+    for bad in (0, 3, 1.0, True):
+        with pytest.raises(BadInput, match="members"):
+            two.with_members(bad)

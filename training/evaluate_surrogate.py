@@ -35,9 +35,9 @@ checkpoint = "prbdm/checkpoints/beam-n4.safetensors"
 data = ""                 # default: the data set path recorded in the checkpoint
 split = "heldout"         # test | new | heldout
 refine_count = 200        # beams refined, fit_batch per call (0: skip)
-refine_iter = 30
-refine_candidates = True  # also refine from all of the network's candidate gammas and the fit's
-                          # four fixed starts (prbdm.fit.refine_starts), each beam in one fit
+refine_iter = 15          # prbdm.fit.REFINE_ITER
+refine_candidates = True  # also refine from the network's best candidates (REFINE_CANDIDATES) and
+                          # the fit's four fixed starts (prbdm.fit.refine_starts), each beam in one fit
 refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
 fit_batch = 1             # beams per fit_many call in the refined and re-fit rows (1: one at
                           # a time; the data sets label in batches of 8): time per beam is the
@@ -148,7 +148,7 @@ if refine_count or refit_count:
     import torch
 
     torch.set_num_threads(threads)
-    from prbdm.fit import fit_many, refine_starts
+    from prbdm.fit import REFINE_CANDIDATES, fit_many, refine_starts
 
     poses = sur.poses.tolist()
     law = sur.law
@@ -174,7 +174,7 @@ if refine_count or refit_count:
     if refine_count:
         lr, tr = batched_fits(pick, init_gamma=pred.gamma, max_iter=refine_iter)
         if refine_candidates and "gamma_candidates" in pred.extra:
-            starts = refine_starts(pred.extra["gamma_candidates"])
+            starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
             H = starts.shape[1]
             lc, tc = batched_fits(pick, init_gamma=starts, max_iter=refine_iter)
             rc = lc / loss_fit[pick]

@@ -6,8 +6,8 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
-- ``refined``: the fit started from the network's candidate gammas and the fit's four fixed starts
-  (:func:`prbdm.fit.refine_starts`), ``--refine-iter`` iterations (:func:`prbdm.fit.fit_many`
+- ``refined``: the fit started from the network's best candidate gammas (``REFINE_CANDIDATES``) and
+  the fit's four fixed starts (:func:`prbdm.fit.refine_starts`), ``--refine-iter`` iterations (:func:`prbdm.fit.fit_many`
   with ``init_gamma``).
 
 For each: the loss (SPEC §3, %), the per-mode frequency error (worst over the poses, %) and the
@@ -44,9 +44,11 @@ def add_arguments(parser):
                         help="start points of the optimised fit (default: prbdm fit's)")
     parser.add_argument("--seed", type=positive_int(0), default=0,
                         help="seed of the fit's start points (default 0)")
-    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=30,
-                        help="iterations of the refinement from the network's candidates and the "
-                             "fit's fixed starts (default 30)")
+    # 15 = prbdm.fit.REFINE_ITER (not imported here: prbdm.fit imports torch, and a bad flag
+    # should fail fast); tests/test_cli_compare.py checks that they agree
+    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=15,
+                        help="iterations of the refinement from the network's best candidates and "
+                             "the fit's fixed starts (default 15)")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
@@ -89,13 +91,13 @@ def run(args) -> int:
     # 2-core machine
     torch.set_num_threads(1)
 
-    from ..fit import fit_many, fit_prbdm, refine_starts
+    from ..fit import REFINE_CANDIDATES, fit_many, fit_prbdm, refine_starts
 
     poses = sur.poses.tolist()
     fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
                     starts=args.starts, seed=args.seed)
     t0 = time.perf_counter()
-    starts = refine_starts(pred.extra.get("gamma_candidates", pred.gamma))
+    starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
     ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
                    init_gamma=starts, max_iter=args.refine_iter)[0]
     t_ref = time.perf_counter() - t0
