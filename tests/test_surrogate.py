@@ -236,6 +236,19 @@ REQUIRED_META = ["joints", "modes", "truth", "law", "poses", "features", "normal
                  "network", "dataset", "training", "versions", "git_commit", "test"]
 
 
+def _torch_outputs(net, src, bb, select_poses):
+    """A torch network's decoded outputs for a batch, with the checkpoint ``src``'s features and
+    normalisation (what training sees), candidates compared on ``select_poses``."""
+    feats = sg.features(bb, src.feature_spec)
+    f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
+    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
+    rfe0 = 2 * src.feature_spec.cells
+    rfe = torch.as_tensor(feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32)
+    with torch.no_grad():
+        return net.outputs(f_std, norm, rfe, torch.as_tensor(bb.x), torch.as_tensor(bb.w),
+                           torch.as_tensor(src.poses), src.modes, select_poses)
+
+
 def test_checkpoint_round_trip(tmp_path):
     src = sg.load_checkpoint(tiny_checkpoint())
     meta = src.metadata
@@ -267,16 +280,7 @@ def test_checkpoint_round_trip(tmp_path):
     a, b = src.predict(beams, warn=False), copy.predict(beams, warn=False)
     for f in ("gamma", "k", "log_omega_hat", "omega", "omega_truth"):
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
-    bb = sg.BeamBatch.from_beams(beams)
-    feats = sg.features(bb, src.feature_spec)
-    f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
-    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
-    rfe0 = 2 * src.feature_spec.cells
-    with torch.no_grad():
-        d = net.outputs(f_std, norm, torch.as_tensor(
-            feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
-            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes,
-            src.select_poses)
+    d = _torch_outputs(net, src, sg.BeamBatch.from_beams(beams), src.select_poses)
     np.testing.assert_allclose(d["gamma"].numpy(), a.gamma, atol=2e-6)
     np.testing.assert_allclose(d["logk"].numpy(), np.log(a.k), atol=2e-5)
     np.testing.assert_allclose(d["log_omega_hat"].numpy(), a.log_omega_hat, atol=2e-5)
@@ -464,15 +468,7 @@ def test_ensemble_checkpoint(tmp_path):
     np.testing.assert_array_equal(p.extra["selected"], loss.argmin(1))
     assert (p.extra["selected"] >= src.member_hypotheses).any()   # both members contribute
     # the torch ensemble (used in training) gives the same
-    feats = sg.features(bb, src.feature_spec)
-    f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
-    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
-    rfe0 = 2 * src.feature_spec.cells
-    with torch.no_grad():
-        d = ens.outputs(f_std, norm, torch.as_tensor(
-            feats[:, rfe0:rfe0 + len(src.norm["freq_mean"])], dtype=torch.float32),
-            torch.as_tensor(bb.x), torch.as_tensor(bb.w), torch.as_tensor(src.poses), src.modes,
-            loaded.select_poses)
+    d = _torch_outputs(ens, src, bb, loaded.select_poses)
     np.testing.assert_array_equal(d["select"].numpy(), p.extra["selected"])
     np.testing.assert_allclose(d["gamma"].numpy(), p.gamma, atol=2e-6)
 
