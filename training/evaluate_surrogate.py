@@ -53,6 +53,7 @@ def _fail(message):
     print(message, file=sys.stderr)
     sys.exit(2)
 
+
 def _parse(argv):
     cfg = {k: v for k, v in globals().items()
            if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
@@ -86,11 +87,11 @@ for _key in _ALLOWED:
     _a.pop(_key, None), _b.pop(_key, None)
 if ds.spec_difference(_a, _b) is not None:
     _fail(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
-             f"(field {ds.spec_difference(_a, _b)})")
+          f"(field {ds.spec_difference(_a, _b)})")
 other_seed = manifest["spec"]["seed"] != meta["dataset"]["spec"]["seed"]
 if manifest["spec"]["starts"] == 0:
     _fail(f"evaluate_surrogate: data set {data} is truth-only (no optimised fits to compare "
-             "with); make one with --starts 64 (the default)")
+          "with); make one with --starts 64 (the default)")
 table = ds.read_table(data, columns=["index", "x", "half_width", "thickness", "omega_truth",
                                      "gamma", "k", "loss_percent", "fit_time_s"],
                       status="ok").to_pandas()

@@ -90,6 +90,7 @@ def _fail(message):
     print(message, file=sys.stderr)
     sys.exit(2)
 
+
 def _parse_overrides(argv):
     cfg = {k: v for k, v in globals().items()
            if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
@@ -119,6 +120,10 @@ if select not in ("mean", "median"):
     _fail(f"train_surrogate: --select must be mean or median, got {select!r}")
 if members < 1:
     _fail(f"train_surrogate: --members must be >= 1, got {members}")
+if lr_schedule not in ("plateau", "cosine"):
+    _fail(f"train_surrogate: --lr_schedule must be plateau or cosine, got {lr_schedule!r}")
+if set(s.strip() for s in modes.split(",") if s.strip()) - {"label", "physics", "combined"}:
+    _fail(f"train_surrogate: --modes: each one of label, physics, combined, got {modes!r}")
 
 import torch  # noqa: E402  (after the configuration, as in nanoGPT)
 
@@ -150,7 +155,7 @@ manifest = ds.read_manifest(data)
 spec = manifest["spec"]
 if spec["law"] != "beam":
     _fail(f"train_surrogate: the surrogate supports the 'beam' law only, data set has "
-             f"{spec['law']!r}")
+          f"{spec['law']!r}")
 columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
            "loss_percent", "fit_time_s", "gamma_spread"]
 table = ds.read_table(data, columns=columns, status="ok").to_pandas()
@@ -182,7 +187,7 @@ labelled = spec["starts"] > 0
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not labelled and set(run_modes) - {"physics"}:
     _fail(f"train_surrogate: --modes: the data set {data} is truth-only (starts 0, no fitted "
-             f"labels); only 'physics' can train on it, got {modes!r}")
+          f"labels); only 'physics' can train on it, got {modes!r}")
 if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
     y_logk = np.log(np.stack(table["k"].to_numpy()))
@@ -331,10 +336,8 @@ def train(mode, member=0):
     if lr_schedule == "cosine":
         sched = torch.optim.lr_scheduler.LambdaLR(
             opt, lambda e: 0.5 * (1 + math.cos(math.pi * min(e, max_epochs) / max_epochs)))
-    elif lr_schedule == "plateau":
-        sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
     else:
-        _fail(f"train_surrogate: --lr_schedule must be plateau or cosine, got {lr_schedule!r}")
+        sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
     gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
@@ -354,10 +357,8 @@ def train(mode, member=0):
                 loss = lg + lk + freq_weight * lc
             elif mode == "physics":
                 loss = phys + freq_weight * lc
-            elif mode == "combined":
+            else:               # combined (the modes are checked with the configuration)
                 loss = lg + lk + freq_weight * lc + phys_weight * phys
-            else:
-                _fail(f"train_surrogate: unknown mode {mode!r} (label, physics, combined)")
             opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
@@ -365,7 +366,10 @@ def train(mode, member=0):
             tot += float(loss.detach()) * len(rows)
         val = evaluate(net, split["val"])
         score = val["loss_" + select]
-        sched.step(score) if lr_schedule == "plateau" else sched.step()
+        if lr_schedule == "plateau":
+            sched.step(score)
+        else:
+            sched.step()
         if score < best:
             best, best_epoch, stale = score, epoch, 0
             best_state = {k: v.clone() for k, v in net.state_dict().items()}

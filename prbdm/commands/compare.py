@@ -6,9 +6,9 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
-- ``refined``: the fit started from the network's best candidate gammas (``REFINE_CANDIDATES``) and
-  the fit's four fixed starts (:func:`prbdm.fit.refine_starts`), ``--refine-iter`` iterations (:func:`prbdm.fit.fit_many`
-  with ``init_gamma``).
+- ``refined``: the fit started from the network's best candidate gammas (``REFINE_CANDIDATES``)
+  and the fit's four fixed starts (:func:`prbdm.fit.refine_starts`), ``--refine-iter``
+  iterations (:func:`prbdm.fit.fit_many` with ``init_gamma``).
 
 For each: the loss (SPEC §3, %), the per-mode frequency error (worst over the poses, %) and the
 time (the computation itself; start-up and imports excluded; ``refined`` excludes the network's
@@ -45,7 +45,7 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=positive_int(0), default=0,
                         help="seed of the fit's start points (default 0)")
     # 15 = prbdm.fit.REFINE_ITER (not imported here: prbdm.fit imports torch, and a bad flag
-    # should fail fast); tests/test_cli_compare.py checks that they agree
+    # should fail fast); tests/test_cli_predict.py checks that they agree
     parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=15,
                         help="iterations of the refinement from the network's best candidates and "
                              "the fit's fixed starts (default 15)")
