@@ -72,8 +72,12 @@ CHECKPOINT_VERSION = 2      # 2: several members (an ensemble) and the choice po
 #: fraction of a feature's training range by which an input may exceed it before a warning
 OOD_MARGIN = 0.05
 #: folders searched for default checkpoints: $PRBDM_CHECKPOINTS (os.pathsep-separated), then the
-#: package's own prbdm/checkpoints/
-PACKAGE_CHECKPOINTS = Path(__file__).resolve().parent / "checkpoints"
+#: shipped ones: prbdm/checkpoints/ in an installed wheel (pyproject.toml maps the repository's
+#: top-level checkpoints/ there), the repository's checkpoints/ in a source checkout or an
+#: editable install
+_HERE = Path(__file__).resolve().parent
+PACKAGE_CHECKPOINTS = next((d for d in (_HERE / "checkpoints", _HERE.parent / "checkpoints")
+                            if d.is_dir()), _HERE / "checkpoints")
 
 
 class OutOfDistributionWarning(UserWarning):
@@ -876,7 +880,7 @@ def available_checkpoints() -> list[Path]:
 def default_checkpoint(joints: int, truth: str = "beam") -> Path:
     """The default checkpoint for ``joints`` joints and the ``truth`` model: the first
     ``TRUTH-nJOINTS.safetensors`` in $PRBDM_CHECKPOINTS (folders separated by os.pathsep), then in
-    the package's ``prbdm/checkpoints/``. BadInput listing what exists when there is none."""
+    the shipped ``checkpoints/``. BadInput listing what exists when there is none."""
     name = checkpoint_name(joints, truth)
     for d in _checkpoint_dirs():
         if (d / name).is_file():

@@ -1,6 +1,6 @@
 """Evaluate a surrogate checkpoint on held-out beams of its data set; print one table.
 
-    python training/evaluate_surrogate.py [--checkpoint=prbdm/checkpoints/beam-n4.safetensors]
+    python training/evaluate_surrogate.py [--checkpoint=checkpoints/beam-n4.safetensors]
         [--data=DIR] [--split=heldout] [--refine_count=200] [--refit_count=20]
 
 Held-out beams (``--split``): ``test`` is the checkpoint's test split (``index % 10 == 9`` among
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 # ------------------------------------------------------------------------------- configuration
-checkpoint = "prbdm/checkpoints/beam-n4.safetensors"
+checkpoint = "checkpoints/beam-n4.safetensors"
 data = ""                 # default: the data set path recorded in the checkpoint
 split = "heldout"         # test | new | heldout
 refine_count = 200        # beams refined, fit_batch per call (0: skip)

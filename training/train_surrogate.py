@@ -4,7 +4,7 @@ One script, read top to bottom (nanoGPT style). Configuration is the plain value
 override any of them on the command line as ``--name=value``:
 
     python training/train_surrogate.py --data=/work/data/beam-n4 \
-        --out=prbdm/checkpoints/beam-n4.safetensors
+        --out=checkpoints/beam-n4.safetensors
 
 What it does:
 
@@ -41,7 +41,7 @@ import numpy as np
 
 # ------------------------------------------------------------------------------- configuration
 data = "/work/data/beam-n4"          # data set folder (prbdm.dataset format)
-out = "prbdm/checkpoints/beam-n4.safetensors"
+out = "checkpoints/beam-n4.safetensors"
 modes = "label,physics,combined"     # training modes to compare, comma-separated
 seed = 0                             # torch seed of every mode (weights init and batch order)
 max_index = -1                       # use records with index <= max_index (-1: all present)
