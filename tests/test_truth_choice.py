@@ -1,0 +1,45 @@
+"""--truth auto: the rule against the recorded measurements and against live solves."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from prbdm.geometry import Beam, random_beam
+from prbdm.truth import bending_frequencies
+from prbdm.truth.choice import AUTO_BEAM_MAX_WIDTH, AUTO_TOLERANCE, choose_truth, width_ratio
+
+MEASURED = Path(__file__).resolve().parents[1] / "docs" / "truth-choice.json"
+
+
+def test_threshold_is_what_the_measurements_support():
+    rows = json.loads(MEASURED.read_text())["rows"]
+    wr = np.array([r["width_ratio"] for r in rows])
+    worst = np.array([max(r["diff"]) for r in rows])
+    inside = wr <= AUTO_BEAM_MAX_WIDTH
+    assert inside.sum() >= 50
+    assert np.percentile(worst[inside], 95) <= AUTO_TOLERANCE
+    # and the next-wider band would break the tolerance: the threshold is not needlessly low
+    wider = wr <= 1.4 * AUTO_BEAM_MAX_WIDTH
+    assert np.percentile(worst[wider], 95) > AUTO_TOLERANCE
+
+
+def test_a_2cm_strip_is_a_beam_and_a_wide_panel_a_plate():
+    strip = Beam(x=[0, 1], half_width=[0.01, 0.01], thickness=0.005)
+    truth, why = choose_truth(strip)
+    assert truth == "beam" and "0.02 L" in why
+    wide = random_beam(1, 0, min_half_width=0.01)
+    truth, why = choose_truth(wide)
+    assert truth == "plate" and f"{width_ratio(wide):.3g} L" in why
+    assert choose_truth(wide, "beam") == ("beam", "--truth beam as asked")
+
+
+def test_live_differences_agree_with_the_choice():
+    strip = Beam(x=[0, 0.5, 1], half_width=[0.012, 0.01, 0.006], thickness=0.004)
+    b = bending_frequencies(strip, "beam", 4).omega
+    p = bending_frequencies(strip, "plate", 4).omega
+    assert np.abs(b / p - 1).max() < AUTO_TOLERANCE
+    wide = random_beam(1, 0, min_half_width=0.01)
+    b = bending_frequencies(wide, "beam", 4).omega
+    p = bending_frequencies(wide, "plate", 4).omega
+    assert np.abs(b / p - 1).max() > AUTO_TOLERANCE
