@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from . import objectives
 from .errors import BadInput
 from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, eigenvalues_unit_k,
                     frequency_errors, make_poses, uniform_gamma)
@@ -68,6 +69,9 @@ class FitResult:
     freq_error (m, r) per-mode relative frequency errors; poses (m, n) [rad];
     n_near_best: starts within 1 % of the best loss; gamma_spread: largest range of any gamma_j
     among those starts (0 when the optimum is well determined); time_s: wall time.
+    objective: what was minimised (``eigenvalue`` or ``frequency``); loss_percent is always the
+    paper's loss and frequency_percent the frequency objective's value (both in %) of the
+    result; best_loss_percent is the best value of the minimised objective among the starts.
     """
 
     gamma: np.ndarray
@@ -86,6 +90,8 @@ class FitResult:
     time_s: float
     seed: int
     best_loss_percent: float = math.nan
+    objective: str = "eigenvalue"
+    frequency_percent: float = math.nan
     extra: dict = field(default_factory=dict)
 
     @property
@@ -103,6 +109,7 @@ class FitResult:
             "freq_error": self.freq_error.tolist(),
             "max_freq_error": float(self.freq_error.max()),
             "loss_percent": self.loss_percent,
+            "objective": self.objective, "frequency_percent": self.frequency_percent,
             "best_loss_percent": self.best_loss_percent,
             "starts": self.n_starts, "n_near_best": self.n_near_best,
             "gamma_spread": self.gamma_spread, "iterations": self.iterations,
@@ -174,19 +181,17 @@ def start_points(n: int, starts: int, seed: int, dtype=torch.float64) -> torch.T
 
 
 # ----------------------------------------------------------------------------- objective
-def _residuals(beam, z, poses, lam_truth, r, law):
-    """Projected residuals (rows, m, r) and best SCFs (rows, m) for unconstrained z (rows, n+1).
+def _residuals(beam, z, poses, lam_truth, r, law, objective="eigenvalue"):
+    """Projected residuals (rows, m, r) and best SCFs (rows, m) for unconstrained z (rows, n+1),
+    of ``objective`` (:mod:`prbdm.objectives`).
 
     beam fields and lam_truth carry the same leading rows as z (nondimensional lam_truth)."""
     mu = eigenvalues_unit_k(beam, gamma_from_z(z), poses, law)[..., :r]   # (rows, m, r)
-    t = lam_truth[..., None, :r]
-    k = (mu * t).sum(-1) / (mu * mu).sum(-1)
-    res = (k[..., None] * mu - t) / torch.linalg.vector_norm(t, dim=-1, keepdim=True)
-    return res, k
+    return objectives.residuals(objective, mu, lam_truth[..., :r])
 
 
-def _loss(res):
-    return 100.0 * torch.linalg.vector_norm(res, dim=-1).mean(-1)
+def _loss(res, objective="eigenvalue"):
+    return objectives.loss(objective, res)
 
 
 def _rows(beam: BeamTensors, idx: torch.Tensor) -> BeamTensors:
@@ -195,19 +200,20 @@ def _rows(beam: BeamTensors, idx: torch.Tensor) -> BeamTensors:
 
 
 # ----------------------------------------------------------------------------- optimiser
-def _objective(beam, z, poses, lam_truth, r, law, grad: bool):
+def _objective(beam, z, poses, lam_truth, r, law, grad: bool, objective="eigenvalue"):
     """Loss (rows,) and, if asked, its exact gradient (rows, n+1) by reverse-mode autograd: the
     rows are independent, so the gradient of their sum is every row's own gradient."""
     if not grad:
         with torch.no_grad():
-            return _loss(_residuals(beam, z, poses, lam_truth, r, law)[0]), None
+            return _loss(_residuals(beam, z, poses, lam_truth, r, law, objective)[0],
+                         objective), None
     z = z.detach().requires_grad_(True)
-    f = _loss(_residuals(beam, z, poses, lam_truth, r, law)[0])
+    f = _loss(_residuals(beam, z, poses, lam_truth, r, law, objective)[0], objective)
     (g,) = torch.autograd.grad(f.sum(), z)
     return f.detach(), g
 
 
-def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6):
+def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6, objective="eigenvalue"):
     """Curvature of Σ||r_i|| from the residual Jacobian (central differences, one batched call):
     Σ_i J_i^T (I - r̂_i r̂_i^T) J_i / ||r_i||, the Hessian without the residuals' own curvature."""
     rows, d = z.shape
@@ -215,8 +221,8 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6):
     pts = z[:, None, :] + torch.cat([h * eye, -h * eye])
     bb = _rows(beam, torch.arange(rows)[:, None].expand(-1, 2 * d))
     with torch.no_grad():
-        res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law)
-        res0, _ = _residuals(beam, z, poses, lam_truth, r, law)
+        res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law, objective)
+        res0, _ = _residuals(beam, z, poses, lam_truth, r, law, objective)
     jac = (res_all[:, :d] - res_all[:, d:]) / (2 * h)                     # (rows, d, m, r)
     norm = torch.linalg.vector_norm(res0, dim=-1).clamp_min(1e-14)        # (rows, m)
     unit = res0 / norm[..., None]
@@ -227,7 +233,8 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6):
 
 
 def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quorum,
-          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3, window=15, window_rtol=1e-6):
+          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3, window=15, window_rtol=1e-6,
+          objective="eigenvalue"):
     """Batched BFGS over rows (start x beam), z kept on the unit sphere. Returns z, loss, iters.
 
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
@@ -246,11 +253,13 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     rows, d = z.shape
     dtype = z.dtype
     lt_all = lam_truth[beam_of_row]
-    f, g = _objective(beam_rows := _rows(beam, beam_of_row), z, poses, lt_all, r, law, True)
+    f, g = _objective(beam_rows := _rows(beam, beam_of_row), z, poses, lt_all, r, law, True,
+                      objective)
     eye = torch.eye(d, dtype=dtype)
 
     def initial_inverse(idx):
-        H = _gauss_newton(_rows(beam_rows, idx), z[idx], poses, lt_all[idx], r, law)
+        H = _gauss_newton(_rows(beam_rows, idx), z[idx], poses, lt_all[idx], r, law,
+                          objective=objective)
         scale = torch.diagonal(H, dim1=-2, dim2=-1).mean(-1).clamp_min(1e-12)[:, None, None]
         zz = z[idx, :, None] * z[idx, None, :]
         # the loss is flat along z itself (z and c z give the same gamma): pin that direction
@@ -288,14 +297,15 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
         trial = zi[:, None, :] + alphas[:, None] * p[:, None, :]
         trial = trial / torch.linalg.vector_norm(trial, dim=-1, keepdim=True)
         bt = _rows(beam_rows, idx[:, None].expand(-1, len(alphas)))
-        ft, _ = _objective(bt, trial, poses, lt_all[idx][:, None, :], r, law, False)
+        ft, _ = _objective(bt, trial, poses, lt_all[idx][:, None, :], r, law, False, objective)
         armijo = ft <= fi[:, None] + 1e-4 * alphas * slope[:, None]
         first = torch.where(armijo.any(-1), armijo.float().argmax(-1), ft.argmin(-1))
         z_new = trial[torch.arange(idx.numel()), first]
         f_new = ft[torch.arange(idx.numel()), first]
         improved = f_new < fi
         z_new = torch.where(improved[:, None], z_new, zi)
-        f_new, g_new = _objective(_rows(beam_rows, idx), z_new, poses, lt_all[idx], r, law, True)
+        f_new, g_new = _objective(_rows(beam_rows, idx), z_new, poses, lt_all[idx], r, law, True,
+                                  objective)
         # BFGS update of the inverse Hessian where the curvature condition holds
         s_ = z_new - zi
         y_ = g_new - gi
@@ -344,12 +354,12 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     return z, f, it
 
 
-def _polish(beam, z, poses, lam_truth, r, law, iters=8):
+def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
     """Levenberg-Marquardt on the reweighted residuals (weight 1/sqrt(||r_i||)), kept only where
     it lowers the loss. BFGS stalls on a loss that is a norm going to zero (the cone at an exact
     fit: `linear` poses with r = n); Gauss-Newton converges there quadratically, to round-off."""
     rows, d = z.shape
-    f, _ = _objective(beam, z, poses, lam_truth, r, law, False)
+    f, _ = _objective(beam, z, poses, lam_truth, r, law, False, objective)
     eye = torch.eye(d, dtype=z.dtype)
     damping = torch.full((rows,), 1e-6, dtype=z.dtype)
     h = 1e-7
@@ -357,8 +367,8 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8):
         pts = z[:, None, :] + torch.cat([h * eye, -h * eye])
         bb = _rows(beam, torch.arange(rows)[:, None].expand(-1, 2 * d))
         with torch.no_grad():
-            res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law)
-            res0, _ = _residuals(beam, z, poses, lam_truth, r, law)
+            res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law, objective)
+            res0, _ = _residuals(beam, z, poses, lam_truth, r, law, objective)
         w = torch.rsqrt(torch.linalg.vector_norm(res0, dim=-1) + 1e-30)[..., None]
         jac = ((res_all[:, :d] - res_all[:, d:]) / (2 * h) * w[:, None]).reshape(rows, d, -1)
         rw = (res0 * w).reshape(rows, -1)
@@ -369,7 +379,7 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8):
         step = torch.where((info == 0)[:, None], -step.squeeze(-1), torch.zeros_like(z))
         z_try = z + torch.nan_to_num(step, nan=0.0, posinf=0.0, neginf=0.0)
         z_try = z_try / torch.linalg.vector_norm(z_try, dim=-1, keepdim=True)
-        f_try, _ = _objective(beam, z_try, poses, lam_truth, r, law, False)
+        f_try, _ = _objective(beam, z_try, poses, lam_truth, r, law, False, objective)
         better = f_try < f
         z = torch.where(better[:, None], z_try, z)
         f = torch.where(better, f_try, f)
@@ -380,7 +390,7 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8):
 def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
              poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
              rep_rtol: float = 1e-3, quorum: int | None = None,
-             init_gamma=None) -> list[FitResult]:
+             init_gamma=None, objective: str = "eigenvalue") -> list[FitResult]:
     """Fit n-joint PRBDMs to several beams at once (all starts of all beams in one batch).
 
     beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
@@ -389,10 +399,13 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     gets the same start points) or a sequence of B ints, one per beam (beam b then starts where
     ``fit_prbdm(..., seed=seed[b])`` would). ``init_gamma`` (B, n+1) or (B, H, n+1): start every
     beam from its own gamma(s) instead (e.g. a network's candidates, then a few iterations refine
-    them, see :func:`refine_starts`); ``starts`` is then H. Returns one :class:`FitResult` per
-    beam.
+    them, see :func:`refine_starts`); ``starts`` is then H. ``objective``: what is minimised,
+    ``"eigenvalue"`` (the paper's loss) or ``"frequency"`` (the worst relative frequency error
+    per pose, see :mod:`prbdm.objectives`); every result reports both. Returns one
+    :class:`FitResult` per beam.
     """
     t0 = time.perf_counter()
+    objectives.check_objective(objective)
     n = _check_int(joints, "joints", 1, int(1 / GAMMA_MIN) - 1)
     starts = default_starts(n) if starts is None else _check_int(starts, "starts", 1, 10 ** 6)
     max_iter = _check_int(max_iter, "max_iter", 1, 10 ** 6)
@@ -449,12 +462,13 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     beam_of_row = torch.arange(B).repeat_interleave(S)
     quorum = quorum or max(3, S // 16)
     quorum = min(quorum, S)
-    z, loss, iters = _bfgs(bt, beam_of_row, z, pose_t, lam_hat, r, law, max_iter, B, quorum)
+    z, loss, iters = _bfgs(bt, beam_of_row, z, pose_t, lam_hat, r, law, max_iter, B, quorum,
+                           objective=objective)
     # polish each beam's near-best starts with Gauss-Newton steps
     best = torch.stack([loss[beam_of_row == bi].min() for bi in range(B)])
     top = torch.nonzero(loss <= best[beam_of_row] * (1 + rep_rtol) + 1e-12).squeeze(-1)
     z[top], loss[top] = _polish(_rows(bt, beam_of_row[top]), z[top], pose_t,
-                                lam_hat[beam_of_row[top]], r, law)
+                                lam_hat[beam_of_row[top]], r, law, objective=objective)
     elapsed = time.perf_counter() - t0
     ref = uniform_gamma(n)
     results = []
@@ -469,18 +483,25 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         pick = cand[torch.argmin(torch.linalg.vector_norm(gam[cand] - ref, dim=-1))]
         results.append(_result(beams[bi], bt, bi, zb[pick], pose_t, omega_truth[bi], lam_hat[bi],
                                r, law, S, int(near.sum()), spread, iters, elapsed / B,
-                               seeds[bi], float(best)))
+                               seeds[bi], float(best), objective))
     return results
 
 
 def _result(beam, bt, bi, z, poses, omega_truth, lam_hat, r, law, S, near, spread, iters,
-            time_s, seed, best):
+            time_s, seed, best, objective="eigenvalue"):
     b1 = _rows(bt, torch.tensor([bi]))
-    res, k = _residuals(b1, z[None], poses, lam_hat[None], r, law)
+    res, k = _residuals(b1, z[None], poses, lam_hat[None], r, law, objective)
     gamma = gamma_from_z(z[None])
-    lam = eigenvalues_unit_k(b1, gamma, poses, law)[0] * k[0][:, None] * b1.lambda0[0]
+    mu = eigenvalues_unit_k(b1, gamma, poses, law)[0]
+    lam = mu * k[0][:, None] * b1.lambda0[0]
     fe = frequency_errors(lam, omega_truth, r)
-    return FitResult(gamma=gamma[0].numpy(), k=k[0].numpy(), loss_percent=float(_loss(res)[0]),
+    # both measures whatever was minimised: the paper's loss and the frequency objective
+    lam_nd = mu * k[0][:, None]
+    paper = float(objectives.eigenvalue_loss(
+        (lam_nd[..., :r] - lam_hat[:r]) / torch.linalg.vector_norm(lam_hat[:r])))
+    freq = float(objectives.frequency_measure(lam_nd, lam_hat, r))
+    return FitResult(gamma=gamma[0].numpy(), k=k[0].numpy(), loss_percent=paper,
+                     objective=objective, frequency_percent=freq,
                      omega=lam.sqrt().numpy(), omega_truth=omega_truth.numpy(),
                      freq_error=fe.numpy(), poses=poses.numpy(), law=law, modes=r, n_starts=S,
                      n_near_best=near, gamma_spread=spread, iterations=iters, time_s=time_s,
