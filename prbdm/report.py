@@ -733,19 +733,31 @@ def plot_scaling(res: dict) -> dict:
 
 
 # ---------------------------------------------------------------------------- stability section
+def _stability_script() -> Path | None:
+    """``benchmarks/stability.py`` of the source checkout this package runs from, else None: the
+    stability suite is evidence kept in the repository (its cases are tests), not installed."""
+    root = Path(__file__).resolve().parents[1]
+    script = root / "benchmarks" / "stability.py"
+    return script if (root / "pyproject.toml").is_file() and script.is_file() else None
+
+
 def stability_section(cfg: ReportConfig) -> tuple[str | None, str]:
     """The stability suite's Markdown, or None and a note saying why it is absent."""
     if not cfg.stability:
         return None, "Skipped (`--no-stability`)."
-    import importlib
+    script = _stability_script()
+    if script is None:
+        return None, ("Not included: the stability suite (`benchmarks/stability.py`, cases in "
+                      "`tests/stability_cases.py`) is part of the prbdm repository, not of the "
+                      "installed package; run `prbdm report` from a source checkout to append "
+                      "it, or see docs/stability.md.")
     import importlib.util
 
-    if importlib.util.find_spec("prbdm.stability") is None:
-        return None, "Not included: `prbdm/stability.py` does not exist yet (issue 7, second half)."
     try:
-        mod = importlib.import_module("prbdm.stability")
-        rows = mod.run_suite(quick=cfg.quick)
-        return mod.format_markdown(rows), ""
+        spec = importlib.util.spec_from_file_location("_prbdm_stability_writer", script)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return mod.section(quick=cfg.quick), ""
     except Exception as exc:          # the report stands on its own; say what failed
         return None, f"Not included: the stability suite failed ({type(exc).__name__}: {exc})."
 
