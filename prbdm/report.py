@@ -262,17 +262,17 @@ def run_report(cfg: ReportConfig) -> dict:
     t_net_single = float(np.mean(ts)) if ts else None
     add("network", "network", pred.omega, t_net, JOINTS, note=f"{sur.name}, batched",
         single_s=t_net_single, extra={"ood_beams": int(pred.ood.any(1).sum())})
-    starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
-    H = starts.shape[1]
+    init = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))     # (B, H, n + 1) gammas
+    H = init.shape[1]
     t0 = time.perf_counter()
-    best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=starts,
+    best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=init,
                     max_iter=REFINE_ITER)
     t_ref = (time.perf_counter() - t0) / B
     ts = []
     for i in range(single):
         t0 = time.perf_counter()
         fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
-                 init_gamma=starts[i:i + 1], max_iter=REFINE_ITER)
+                 init_gamma=init[i:i + 1], max_iter=REFINE_ITER)
         ts.append(time.perf_counter() - t0)
     add("refined", f"network + refined ({H} starts, {REFINE_ITER} it.)",
         np.stack([x.omega for x in best]), t_net + t_ref, JOINTS, needs="beam",

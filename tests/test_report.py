@@ -84,6 +84,15 @@ def test_numbers_finite_and_fit_beats_rfe(tiny):
     assert res["source"]["seed"] == 1 and res["config"]["fit_seed"] == 0
 
 
+def test_config_records_the_start_counts_run(tiny):
+    """config.starts is the fit start counts compared (--starts 8,16), not the refinement's
+    start points (it used to be overwritten by them)."""
+    _, res = tiny
+    assert res["config"]["starts"] == [8, 16]
+    assert [m["key"] for m in res["methods"] if m["key"].startswith("fit_")
+            and m["key"] != "fit_plate"] == ["fit_8", "fit_16"]
+
+
 def _run(argv, capsys):
     try:
         code = cli.main(argv)
