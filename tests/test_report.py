@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
-import types
 
 import numpy as np
 import pytest
@@ -86,6 +84,15 @@ def test_numbers_finite_and_fit_beats_rfe(tiny):
     assert res["source"]["seed"] == 1 and res["config"]["fit_seed"] == 0
 
 
+def test_config_records_the_start_counts_run(tiny):
+    """config.starts is the fit start counts compared (--starts 8,16), not the refinement's
+    start points (it used to be overwritten by them)."""
+    _, res = tiny
+    assert res["config"]["starts"] == [8, 16]
+    assert [m["key"] for m in res["methods"] if m["key"].startswith("fit_")
+            and m["key"] != "fit_plate"] == ["fit_8", "fit_16"]
+
+
 def _run(argv, capsys):
     try:
         code = cli.main(argv)
@@ -122,22 +129,29 @@ def test_failure_leaves_no_files(tiny, tmp_path, monkeypatch):
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
 
 
-def test_stability_hook(monkeypatch):
-    fake = types.ModuleType("prbdm.stability")
-    fake.run_suite = lambda quick: [{"case": "x", "quick": quick}]
-    fake.format_markdown = lambda rows: f"STABILITY {rows[0]['case']} quick={rows[0]['quick']}"
-    monkeypatch.setitem(sys.modules, "prbdm.stability", fake)
-    monkeypatch.setattr("importlib.util.find_spec", lambda name: object())
+def test_stability_hook(monkeypatch, tmp_path):
+    # this checkout carries the suite's table writer; the hook finds it and can call it
+    import importlib.util
+    import inspect
+
+    spec = importlib.util.spec_from_file_location("writer", rp._stability_script())
+    writer = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(writer)
+    assert list(inspect.signature(writer.section).parameters) == ["quick"]
+    fake = tmp_path / "stability.py"
+    fake.write_text("def section(quick):\n    return f'STABILITY quick={quick}'\n")
+    monkeypatch.setattr(rp, "_stability_script", lambda: fake)
     md, note = rp.stability_section(rp.ReportConfig(quick=True))
-    assert md == "STABILITY x quick=True" and note == ""
+    assert md == "STABILITY quick=True" and note == ""
     md, note = rp.stability_section(rp.ReportConfig(stability=False))
     assert md is None and "--no-stability" in note
-
-    def broken(quick):
-        raise ValueError("bad case")
-    fake.run_suite = broken
+    fake.write_text("def section(quick):\n    raise ValueError('bad case')\n")
     md, note = rp.stability_section(rp.ReportConfig())
     assert md is None and "ValueError" in note
+    # an installed package has no suite: a note, not an error
+    monkeypatch.setattr(rp, "_stability_script", lambda: None)
+    md, note = rp.stability_section(rp.ReportConfig())
+    assert md is None and "source checkout" in note
 
 
 def test_held_out_from_data_set(tmp_path):

@@ -1,23 +1,30 @@
-"""Stability on stiff and extreme cases (issue 7): every quick case of prbdm.stability as a test,
-plus the library fixes the suite led to (each checked directly, so a revert fails here).
+"""Stability on stiff and extreme cases (issue 7): every case of the suite as a pytest case, plus
+the library fixes the suite led to (each checked directly, so a revert fails here).
 
-The cases compare against independent references (analytic cantilever, shooting ODE solution,
-exact scaling laws, a hand-written 2R model, finite differences, float64); see the module's
-docstring. The full suite (plate truth, every n, every corner) is ``python
-benchmarks/stability.py``; its slow cases run here under ``-m slow``.
+The cases (tests/stability_cases.py) compare against independent references (analytic
+cantilever, shooting ODE solution, exact scaling laws, a hand-written 2R model, finite
+differences, float64); the harness is tests/stability_checks.py. The quick cases run by default
+(~15 s); the rest (plate truth, every n, every corner) under ``-m slow``, a known failure as an
+xfail with its reason. The table of docs/stability.md is ``python benchmarks/stability.py
+--details``.
 """
+import importlib.util
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from prbdm import stability
+import stability_cases
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, MAX_PRBDM_WIDTH_RATIO
+from stability_checks import Case, run_case
 
-QUICK = [c for c in stability.CASES if c.quick]
-SLOW = [c for c in stability.CASES if not c.quick]
+QUICK = [c for c in stability_cases.CASES if c.quick]
+SLOW = [pytest.param(c, id=c.name, marks=[pytest.mark.xfail(reason=c.known_failure, strict=True)]
+                     if c.known_failure else [])
+        for c in stability_cases.CASES if not c.quick]
 
 
 def _assert_row(row):
@@ -33,16 +40,26 @@ def _assert_row(row):
 
 @pytest.mark.parametrize("case", QUICK, ids=[c.name for c in QUICK])
 def test_quick_case(case):
-    _assert_row(stability.run_case(case))
+    assert not case.known_failure, "a known failure belongs to the slow cases, as an xfail"
+    _assert_row(run_case(case))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", SLOW, ids=[c.name for c in SLOW])
+@pytest.mark.parametrize("case", SLOW)
 def test_slow_case(case):
-    _assert_row(stability.run_case(case))
+    _assert_row(run_case(case))
 
 
 # ----------------------------------------------------------------------------- the harness
+def _writer():
+    """benchmarks/stability.py, the table writer (a script, not a module on sys.path)."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stability.py"
+    spec = importlib.util.spec_from_file_location("stability_writer", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def test_a_failing_check_fails_the_row_and_an_exception_is_caught():
     def bad(row):
         row.check("2 <= 1", 2.0, 1.0)
@@ -51,35 +68,43 @@ def test_a_failing_check_fails_the_row_and_an_exception_is_caught():
     def boom(row):
         raise RuntimeError("kaboom")
 
-    r = stability.run_case(stability.Case("bad", "nothing", bad, {}))
+    r = run_case(Case("bad", "nothing", bad, {}))
     assert not r["passed"] and r["failed"] == ["2 <= 1"]
     assert r["accuracy"] == 2.0 and r["tolerance"] == 1.0
-    r = stability.run_case(stability.Case("boom", "nothing", boom, {}))
+    r = run_case(Case("boom", "nothing", boom, {}))
     assert not r["passed"] and "kaboom" in r["note"]
     # a NaN never passes a tolerance
-    r = stability.run_case(stability.Case("nan", "nothing",
-                                          lambda row: row.check("nan", float("nan"), 1.0), {}))
+    r = run_case(Case("nan", "nothing", lambda row: row.check("nan", float("nan"), 1.0), {}))
     assert not r["passed"]
 
 
 def test_markdown_section():
-    rows = [stability.run_case(c) for c in QUICK if c.name in ("n = 4", "bad input")]
-    rows.append(stability.run_case(stability.Case(
-        "broken", "nothing", lambda row: row.check("x", 3.0, 1.0), {})))
-    md = stability.format_markdown(rows)
+    rows = [run_case(c) for c in QUICK if c.name in ("n = 4", "bad input")]
+    rows.append(run_case(Case("broken", "nothing", lambda row: row.check("x", 3.0, 1.0), {})))
+    rows.append(run_case(Case("known", "nothing", lambda row: row.check("y", 3.0, 1.0), {},
+                              known_failure="y is too big")))
+    writer = _writer()
+    md = writer.format_markdown(rows)
     assert md.startswith("## Stability on stiff and extreme cases")
-    assert "2 of 3 cases pass" in md
+    assert "2 of 4 cases pass" in md
     lines = [ln for ln in md.splitlines() if ln.startswith("| ")]
     assert len(lines) == 1 + len(rows)                       # header + one row per case
     assert "| n = 4 |" in md and "**0/1**" in md and "- broken: x" in md
+    assert "- known: y" in md and md.count("*Known failure*") == 1
     assert "K^-1/2 M K^-1/2" in md and "eigvalsh" in md
+    table = writer.details(rows[-2:]).splitlines()
+    assert table[2] == "| broken | x | 3 | 1 | **NO** |" and len(table) == 4
 
 
 def test_run_suite_interface():
     keys = {"name", "varied", "passed", "failed", "checks", "accuracy", "tolerance", "cond_M",
-            "cond_K", "cond_A", "grad_finite", "time_s"}
-    assert keys <= set(stability.run_case(QUICK[0]))
-    assert len({c.name for c in stability.CASES}) == len(stability.CASES)
+            "cond_K", "cond_A", "grad_finite", "time_s", "known_failure"}
+    assert keys <= set(run_case(QUICK[0]))
+    names = [c.name for c in stability_cases.CASES]
+    assert len(set(names)) == len(names)
+    # the known failure stays reported (docs/stability.md, Limitations), not dropped
+    assert [c.name for c in stability_cases.CASES if c.known_failure] == [
+        "fit from all gamma corners"]
 
 
 # ----------------------------------------------------------------------------- library fixes

@@ -58,7 +58,8 @@ def add_arguments(parser):
     parser.add_argument("--quick", action="store_true",
                         help="a small, fast run (few beams, short scaling sweeps): for tests")
     parser.add_argument("--no-stability", action="store_true",
-                        help="do not append the stability suite (prbdm.stability)")
+                        help="do not append the stability suite (benchmarks/stability.py; "
+                             "only in a source checkout)")
 
 
 def _command(args) -> str:

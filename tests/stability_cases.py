@@ -1,4 +1,4 @@
-"""Stability on stiff and extreme cases (issue 7): the case suite as data, its checks, a report.
+"""The stability suite on stiff and extreme cases (issue 7), as data: ``CASES``.
 
 Every case builds a panel or a model at an extreme of the input range, runs the truth, the PRBDM,
 its gradients, a fit or the network on it, and checks the outcome against an *independent*
@@ -10,253 +10,78 @@ and positive, gradients are finite, and each accuracy lies within its stated tol
 when the input is refused with a :class:`prbdm.errors.BadInput` naming the field. Never a silent
 wrong number.
 
-    rows = run_suite(quick=True)        # one dict per case
-    print(format_markdown(rows))        # a Markdown section: table + the conditioning tricks
+    rows = run_suite(quick=True)        # one dict per case (stability_checks.run_case)
 
-Condition numbers are those of the matrices actually used: ``M`` (nondimensional, largest over
-the poses), ``K = diag(s)`` (joint stiffnesses, nondimensional), ``A = K^-1/2 M K^-1/2`` (the
-symmetric problem that :func:`prbdm.model.eigenvalues_unit_k` hands to ``eigvalsh``), and for
-cases with a beam truth the FEM stiffness before and after the diagonal scaling that
-:mod:`prbdm.truth.beam` applies before its LU.
+``tests/test_stability.py`` runs each case as a pytest case (``quick=False`` ones under
+``-m slow``); ``benchmarks/stability.py`` prints the table of docs/stability.md. Evidence kept in
+the repository, not part of the installed package.
 """
 from __future__ import annotations
 
 import math
-import time
-import traceback
 import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import BadInput
-from .geometry import Beam, Material, random_beam
+from prbdm.errors import BadInput
+from prbdm.geometry import Beam, Material, random_beam
+from stability_checks import (ALUMINIUM, ELASTOMER, EPS32, GAMMA4, RFE_BOUND, STEEL, TITANIUM,
+                              Case, Row, analytic_omega, beam_truth, is_sane, prbdm_lam, refused,
+                              rel_err, rfe_omega, run_case, shooting_error, tapered_panel, torch1,
+                              uniform_panel)
 
-__all__ = ["run_suite", "format_markdown", "CASES", "Case"]
-
-EPS32 = float(np.finfo(np.float32).eps)
-STEEL = Material()
-ALUMINIUM = Material(E=70e9, rho=2700.0, nu=0.33)
-TITANIUM = Material(E=114e9, rho=4430.0, nu=0.34)
-ELASTOMER = Material(E=5e6, rho=1100.0, nu=0.49)
-#: a link layout away from every symmetry, inside the bounds
-GAMMA4 = [0.3, 0.15, 0.2, 0.2, 0.15]
-#: |omega_RFE / omega_EB - 1| * n^2 for the uniform cantilever tends to 0.2294, 0.7971, 1.3078
-#: (modes 1-3) from above; mode 1 stays below 0.25 for every n >= 2 (0.2433 at n = 2), modes 2-3
-#: below 0.85 and 1.35 from n = 4 on (measured, benchmarks/bench_model.py --convergence)
-RFE_BOUND = (0.25, 0.85, 1.35)
-
-
-# ============================================================================ bookkeeping
-@dataclass
-class _Row:
-    checks: list = field(default_factory=list)
-    cond: dict = field(default_factory=dict)
-    grad_finite: bool | None = None
-    note: str = ""
-    key: dict | None = None
-    extra: dict = field(default_factory=dict)
-
-    def check(self, name: str, value, tol=None, ok=None, key=False):
-        """``value <= tol`` (finite) unless ``ok`` is given; value may be None for yes/no.
-        ``key``: the accuracy this case is summarised by in the table."""
-        if ok is None:
-            ok = value is not None and math.isfinite(value) and value <= tol
-        c = {"check": name, "value": None if value is None else float(value),
-             "tol": None if tol is None else float(tol), "passed": bool(ok)}
-        self.checks.append(c)
-        if key:
-            self.key = c
-        return ok
-
-    def conds(self, **kw):
-        for k, v in kw.items():
-            if v is not None:
-                self.cond[k] = max(self.cond.get(k, 0.0), float(v))
-
-    def grads(self, ok: bool):
-        self.grad_finite = bool(ok) if self.grad_finite is None else self.grad_finite and bool(ok)
-
-
-@dataclass(frozen=True)
-class Case:
-    name: str
-    varied: str
-    fn: object
-    kwargs: dict
-    quick: bool = True          # part of the quick suite (the tests); else full suite only
-
-
-# ============================================================================ helpers
-def _torch():
-    import torch
-    torch.set_num_threads(1)
-    return torch
-
-
-def _prbdm(row: _Row, beam: Beam, gamma, poses="paper", law="beam", dtype=None, grad=True):
-    """Nondimensional eigenvalues (m, n) as float64 NumPy, with the condition numbers of M, K and
-    A = K^-1/2 M K^-1/2 and the finiteness of d(sum log lam)/d(gamma, widths, thickness)."""
-    torch = _torch()
-    from . import model
-    dtype = dtype or torch.float64
-    bt = model.BeamTensors.from_beams(beam, dtype=dtype)
-    g_free = torch.tensor(np.asarray(gamma, dtype=np.float64)[:-1], dtype=dtype,
-                          requires_grad=grad)
-    w = bt.w.clone().requires_grad_(grad)
-    t = bt.thickness.clone().requires_grad_(grad)
-    b2 = model.BeamTensors(bt.x, w, bt.length, t, bt.E, bt.rho)
-    gam = torch.cat([g_free, 1 - g_free.sum(-1, keepdim=True)])
-    P = model.make_poses(poses, len(gamma) - 1, dtype)
-    lam = model.eigenvalues_unit_k(b2, gam, P, law)
-    with torch.no_grad():
-        links = model.links_from_gamma(b2, gam)
-        s = model.base_stiffness(b2, links, law)
-        M = model.mass_matrix(model._expand_links(links), P)
-        d = torch.rsqrt(s)[..., None, :]
-        A = d[..., :, None] * M * d[..., None, :]
-        row.conds(M=np.linalg.cond(M.double().numpy()).max(),
-                  K=float(s.max() / s.min()),
-                  A=np.linalg.cond(A.double().numpy()).max())
-    if grad:
-        gs = torch.autograd.grad(lam.log().sum(), [g_free, w, t], allow_unused=True)
-        row.grads(all(g is None or bool(torch.isfinite(g).all()) for g in gs))
-    return lam.detach().double().numpy()
-
-
-def _sane(lam) -> bool:
-    """Finite, positive and ascending per pose."""
-    lam = np.asarray(lam, dtype=np.float64)
-    return bool(np.all(np.isfinite(lam)) and np.all(lam > 0) and np.all(np.diff(lam, axis=-1) >= 0))
-
-
-def _rfe(row, beam, n, grad=False):
-    """Rigid-finite-element model (beam law, k = 1, [1/2, 1, ..., 1/2]/n, straight), its
-    frequencies in units of omega_0 = (t/L^2) sqrt(E/(12 rho)), the beam truth's unit."""
-    g = np.full(n + 1, 1.0 / n)
-    g[0] = g[-1] = 0.5 / n
-    lam = _prbdm(row, beam, g, "linear", grad=grad)[0]
-    return np.sqrt(12.0 * lam)
-
-
-def _truth(row, beam, modes=5):
-    """Beam truth frequencies in units of omega_0 (the nondimensional sqrt(lambda)), and the
-    condition numbers of its FEM stiffness before / after diagonal scaling."""
-    from .truth import bending_frequencies
-    res = bending_frequencies(beam, model="beam", modes=modes)
-    raw, scaled = _fem_cond(beam, modes)
-    row.conds(fem_raw=raw, fem=scaled)
-    return res.omega / res.omega_scale
-
-
-def _fem_cond(beam, modes=5):
-    """cond of the beam truth's free-DOF stiffness as assembled (nondimensional, graded mesh) and
-    after the symmetric diagonal scaling D K D that solve_beam factorises."""
-    from skfem import Basis, MeshLine
-    from .truth._hermite import LocalHermite
-    from .truth.beam import beam_nodes, stiffness
-    L = beam.length
-    xs, ws = beam.x / L, beam.half_width / L
-    nodes = beam_nodes(beam, None, True, modes)
-    basis = Basis(MeshLine(nodes), LocalHermite(), intorder=8)
-    beta = np.interp(basis.mapping.F(basis.X)[0], xs, ws) / ws.max()
-    K = stiffness.assemble(basis, beta=beta)
-    free = basis.complement_dofs(basis.get_dofs(lambda x: x[0] < 0.5 * nodes[1]).all())
-    Kf = K[free][:, free].toarray()
-    d = 1.0 / np.sqrt(np.diag(Kf))
-    return np.linalg.cond(Kf), np.linalg.cond(d[:, None] * Kf * d[None, :])
-
-
-def _shooting(beam, omega_hat, modes):
-    """Relative frequency error of the FEM against the mesh-free shooting solution."""
-    from .truth.shooting import shooting_eigenvalues
-    lam = shooting_eigenvalues(beam, omega_hat[:modes] ** 2)
-    return float(np.max(np.abs(omega_hat[:modes] / np.sqrt(lam) - 1)))
-
-
-def _analytic(modes):
-    from .truth.analytic import cantilever_roots
-    return cantilever_roots(modes) ** 2
-
-
-def _rel(a, b) -> float:
-    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1)))
-
-
-def _raises(fn, field_name) -> tuple[bool, str]:
-    try:
-        fn()
-    except BadInput as exc:
-        return field_name in str(exc), str(exc)
-    except Exception as exc:                                        # noqa: BLE001
-        return False, f"{type(exc).__name__}: {exc}"
-    return False, "accepted"
-
-
-def uniform_panel(half_width=0.18, thickness=0.02, material=STEEL, length=1.0) -> Beam:
-    return Beam(x=[0.0, length], half_width=[half_width, half_width], thickness=thickness,
-                material=material)
-
-
-def tapered_panel(material=STEEL, thickness=0.03, scale=1.0) -> Beam:
-    """The README's tapered panel (three stations, a kink at 0.35 L)."""
-    return Beam(x=[0.0, 0.35, 1.0], half_width=[0.18 * scale, 0.12 * scale, 0.05 * scale],
-                thickness=thickness, material=material)
-
-
-# ============================================================================ cases
-def case_scaling(row: _Row, beam: Beam, ref: Beam, analytic: bool):
+def case_scaling(row: Row, beam: Beam, ref: Beam, analytic: bool):
     """Size, thickness and material enter only through lambda_0 = E t^2 / (rho L^4): the
     nondimensional eigenvalues of a shape must not change, and the SI ones must scale exactly."""
-    torch = _torch()
-    from . import model
-    lam = _prbdm(row, beam, GAMMA4)
-    lam_ref = _prbdm(_Row(), ref, GAMMA4, grad=False)
-    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
-    row.check("PRBDM nondim. eigenvalues = reference panel's", _rel(lam, lam_ref), 1e-10,
+    torch = torch1()
+    from prbdm import model
+    lam = prbdm_lam(row, beam, GAMMA4)
+    lam_ref = prbdm_lam(Row(), ref, GAMMA4, grad=False)
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=is_sane(lam))
+    row.check("PRBDM nondim. eigenvalues = reference panel's", rel_err(lam, lam_ref), 1e-10,
               key=True)
     g = torch.tensor(GAMMA4, dtype=torch.float64)
     si = model.eigenvalues(beam, g).numpy()
     si_ref = model.eigenvalues(ref, g).numpy()
     l0 = [float(model.BeamTensors.from_beams(b).lambda0) for b in (beam, ref)]
-    row.check("SI eigenvalues scale by E t^2/(rho L^4)", _rel(si / l0[0], si_ref / l0[1]), 1e-10)
-    om = _truth(row, beam)
-    om_ref = _truth(_Row(), ref)
-    row.check("beam truth nondim. = reference panel's", _rel(om, om_ref), 1e-10)
+    row.check("SI eigenvalues scale by E t^2/(rho L^4)", rel_err(si / l0[0], si_ref / l0[1]), 1e-10)
+    om = beam_truth(row, beam)
+    om_ref = beam_truth(Row(), ref)
+    row.check("beam truth nondim. = reference panel's", rel_err(om, om_ref), 1e-10)
     if analytic:
-        row.check("beam truth vs cos a cosh a = -1 (5 modes)", _rel(om, _analytic(5)), 1e-4)
+        row.check("beam truth vs cos a cosh a = -1 (5 modes)", rel_err(om, analytic_omega(5)), 1e-4)
         n = 20
-        e = np.abs(_rfe(row, beam, n, grad=True)[:3] / _analytic(3) - 1) * n * n
+        e = np.abs(rfe_omega(row, beam, n, grad=True)[:3] / analytic_omega(3) - 1) * n * n
         row.check("RFE n=20 vs analytic, n^2 err / bound (modes 1-3)",
                   float(np.max(e / RFE_BOUND)), 1.0)
     else:
-        row.check("beam truth vs shooting (modes 1-2)", _shooting(beam, om, 2), 1e-4)
+        row.check("beam truth vs shooting (modes 1-2)", shooting_error(beam, om, 2), 1e-4)
 
 
-def case_width(row: _Row, beam: Beam, order: bool, shoot_modes: int, plate=None):
+def case_width(row: Row, beam: Beam, order: bool, shoot_modes: int, plate=None):
     """Fast width changes: truth against the mesh-free shooting solution, PRBDM against the beam
     (rigid-finite-element limit), widths scaled by 0.01 change nothing nondimensional. ``plate``:
     None, "finite", "slender" (also within 2 % of the beam) or "refused" (BadInput expected)."""
-    from .truth.analytic import beam_omega_scale
-    om = _truth(row, beam)
-    row.check("beam truth finite, sorted, positive", None, ok=_sane(om))
+    from prbdm.truth.analytic import beam_omega_scale
+    om = beam_truth(row, beam)
+    row.check("beam truth finite, sorted, positive", None, ok=is_sane(om))
     row.check(f"beam truth vs shooting (modes 1-{shoot_modes})",
-              _shooting(beam, om, shoot_modes), 1e-4, key=True)
+              shooting_error(beam, om, shoot_modes), 1e-4, key=True)
     errs = {}
     for n in (20, 40):
-        errs[n] = np.abs(_rfe(row, beam, n, grad=True)[:3] / om[:3] - 1)
+        errs[n] = np.abs(rfe_omega(row, beam, n, grad=True)[:3] / om[:3] - 1)
     row.check("RFE n=40 vs beam truth, n^2 rel. error (modes 1-3)", float(errs[40].max() * 1600), 1.5)
     if order:
         p = math.log2(errs[20][0] / errs[40][0])
         row.check("RFE observed order p, mode 1 (n 20 -> 40): abs(p - 2)", abs(p - 2), 0.2)
-    lam = _prbdm(row, beam, GAMMA4)
+    lam = prbdm_lam(row, beam, GAMMA4)
     small = Beam(x=beam.x, half_width=beam.half_width * 0.01, thickness=beam.thickness,
                  material=beam.material)
-    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=is_sane(lam))
     row.check("PRBDM nondim. unchanged by widths x 0.01",
-              _rel(_prbdm(_Row(), small, GAMMA4, grad=False), lam), 1e-10)
+              rel_err(prbdm_lam(Row(), small, GAMMA4, grad=False), lam), 1e-10)
     if plate:
-        from .truth import bending_frequencies
+        from prbdm.truth import bending_frequencies
         try:
             res = bending_frequencies(beam, model="plate", modes=4)
         except BadInput as exc:
@@ -266,7 +91,7 @@ def case_width(row: _Row, beam: Beam, order: bool, shoot_modes: int, plate=None)
         else:
             ratio = res.omega / (om[:4] * beam_omega_scale(beam))
             row.check("plate truth finite, sorted, positive", None,
-                      ok=_sane(res.omega) and plate != "refused")
+                      ok=is_sane(res.omega) and plate != "refused")
             if plate == "slender":
                 # a narrow plate tends to the Euler-Bernoulli beam (+0.6 % at L/b = 10)
                 row.check("plate / beam - 1 (slender limit, modes 1-4)",
@@ -274,20 +99,20 @@ def case_width(row: _Row, beam: Beam, order: bool, shoot_modes: int, plate=None)
             row.note = "plate / beam, modes 1-4: " + ", ".join(f"{r:.4f}" for r in ratio)
 
 
-def case_needle_beyond(row: _Row, tip: float):
+def case_needle_beyond(row: Row, tip: float):
     """Beyond the truth's 1e6 width ratio: the truth refuses naming half_width; the PRBDM
     answers up to 1e12 and refuses beyond (it would otherwise fail inside eigvalsh near 1e17)."""
     beam = Beam(x=[0.0, 1.0], half_width=[0.1, tip], thickness=0.02)
-    from .truth import bending_frequencies
-    ok, msg = _raises(lambda: bending_frequencies(beam, model="beam"), "half_width")
+    from prbdm.truth import bending_frequencies
+    ok, msg = refused(lambda: bending_frequencies(beam, model="beam"), "half_width")
     row.check("beam truth refuses (BadInput naming half_width)", None, ok=ok)
     if 0.1 / tip <= 1e12:
-        lam = _prbdm(row, beam, GAMMA4)
-        row.check("PRBDM finite, sorted, positive", None, ok=_sane(lam))
+        lam = prbdm_lam(row, beam, GAMMA4)
+        row.check("PRBDM finite, sorted, positive", None, ok=is_sane(lam))
         # the last joint's spring integrates dx / w up to the tip: for a linear taper that is
         # (b - a) log(w_a / w_tip) / (w_a - w_tip), exact in closed form however thin the tip
-        torch = _torch()
-        from . import model
+        torch = torch1()
+        from prbdm import model
         bt = model.BeamTensors.from_beams(beam)
         links = model.links_from_gamma(bt, torch.tensor(GAMMA4, dtype=torch.float64))
         a = float(links.cuts[-2] + links.cuts[-3]) / 2                # centre of link n-1
@@ -297,22 +122,22 @@ def case_needle_beyond(row: _Row, tip: float):
         # ~eps ratio / log(ratio) relative, 1e-6 at 1e11:1
         row.check("tip compliance int dx/w vs closed form", abs(
             float(links.tributary_compliance[-1]) / exact - 1), 1e-6, key=True)
-        ref = _prbdm(_Row(), Beam(x=[0.0, 1.0], half_width=[0.1, 1e-6], thickness=0.02), GAMMA4,
+        ref = prbdm_lam(Row(), Beam(x=[0.0, 1.0], half_width=[0.1, 1e-6], thickness=0.02), GAMMA4,
                      grad=False)
         msg = (f"lam_n / lam_n of the 1e5:1 needle = {lam[0, -1] / ref[0, -1]:.3f} (the tip "
                "compliance grows like log(1/w_tip)); the beam truth refuses it")
     else:
-        ok, msg = _raises(lambda: _prbdm(row, beam, GAMMA4), "half_width")
+        ok, msg = refused(lambda: prbdm_lam(row, beam, GAMMA4), "half_width")
         row.check("PRBDM refuses (BadInput naming half_width)", None, ok=ok)
     row.note = msg[:160]
 
 
-def case_joints(row: _Row, n: int):
+def case_joints(row: Row, n: int):
     """n joints: bounds feasible, paper poses inside n theta <= pi/2, RFE accuracy (exact
     spring-pendulum for n = 1), autograd against central differences."""
-    torch = _torch()
-    from . import model
-    from .fit import gamma_from_z
+    torch = torch1()
+    from prbdm import model
+    from prbdm.fit import gamma_from_z
     beam = uniform_panel()
     row.check("gamma bounds feasible: (n+1) 0.025 <= 1", None, ok=(n + 1) * model.GAMMA_MIN <= 1)
     gen = torch.Generator().manual_seed(n)
@@ -323,17 +148,17 @@ def case_joints(row: _Row, n: int):
     P = model.paper_poses(n)
     row.check("paper poses: n theta <= pi/2", float((n * P[:, 0]).max() - math.pi / 2), 1e-12)
     gam = g[0].numpy()
-    lam = _prbdm(row, beam, gam, "paper")
-    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=_sane(lam))
-    om = _rfe(row, beam, n)
+    lam = prbdm_lam(row, beam, gam, "paper")
+    row.check("PRBDM finite, sorted, positive (paper poses)", None, ok=is_sane(lam))
+    om = rfe_omega(row, beam, n)
     if n == 1:
         # m = 2w/2, c = 1/4, J = m/48, s = w/6 (nondimensional): lam = s / (m c^2 + J) = 2
-        lam1 = _prbdm(_Row(), beam, [0.5, 0.5], [0.0, 0.4, 1.2], grad=False)
-        row.check("1R = spring-pendulum, lam = 2 at every pose", _rel(lam1, 2.0), 1e-12,
+        lam1 = prbdm_lam(Row(), beam, [0.5, 0.5], [0.0, 0.4, 1.2], grad=False)
+        row.check("1R = spring-pendulum, lam = 2 at every pose", rel_err(lam1, 2.0), 1e-12,
                   key=True)
     else:
         r = min(3, n)
-        e = np.abs(om[:r] / _analytic(r) - 1)
+        e = np.abs(om[:r] / analytic_omega(r) - 1)
         row.check("RFE mode 1 vs analytic (bound 0.25/n^2)", float(e[0]), RFE_BOUND[0] / n ** 2,
                   key=True)
         if n >= 4:
@@ -377,35 +202,35 @@ def _closed_form_2r(w, gamma, theta2):
     return eigh(K, M, eigvals_only=True)
 
 
-def case_poses_2r(row: _Row, thetas):
+def case_poses_2r(row: Row, thetas):
     """2R against the closed form at, and beyond, the n theta = pi/2 limit."""
     beam = uniform_panel()
     gamma = [0.3, 0.3, 0.4]
     worst = 0.0
     for th in thetas:
-        lam = _prbdm(row, beam, gamma, [th])
-        row.check(f"finite, sorted, positive at theta = {th:.4g}", None, ok=_sane(lam))
-        worst = max(worst, _rel(lam[0], _closed_form_2r(0.18, gamma, th)))
+        lam = prbdm_lam(row, beam, gamma, [th])
+        row.check(f"finite, sorted, positive at theta = {th:.4g}", None, ok=is_sane(lam))
+        worst = max(worst, rel_err(lam[0], _closed_form_2r(0.18, gamma, th)))
     row.check("2R vs hand-written closed form", worst, 1e-12, key=True)
 
 
-def case_poses_4r(row: _Row, totals):
+def case_poses_4r(row: Row, totals):
     """4R at n theta = pi/2 and beyond: M stays SPD (its J_j term is SPD at every pose), theta_1
     turns the chain rigidly, -theta mirrors it; the command warns beyond the paper's range."""
     beam = tapered_panel()
     n = 4
     for tot in totals:
         th = tot / n
-        lam = _prbdm(row, beam, GAMMA4, [th])
-        row.check(f"finite, sorted, positive at n theta = {tot:.4g}", None, ok=_sane(lam))
+        lam = prbdm_lam(row, beam, GAMMA4, [th])
+        row.check(f"finite, sorted, positive at n theta = {tot:.4g}", None, ok=is_sane(lam))
         P = np.full((1, n), th)
         Q = P.copy()
         Q[0, 0] += 0.7
-        rot = _prbdm(_Row(), beam, GAMMA4, Q, grad=False)
-        mir = _prbdm(_Row(), beam, GAMMA4, -P, grad=False)
+        rot = prbdm_lam(Row(), beam, GAMMA4, Q, grad=False)
+        mir = prbdm_lam(Row(), beam, GAMMA4, -P, grad=False)
         row.check(f"theta_1 rigid rotation, mirror (n theta = {tot:.4g})",
-                  max(_rel(rot, lam), _rel(mir, lam)), 1e-12, key=tot == totals[-1])
-    from .commands.eval import parse_poses
+                  max(rel_err(rot, lam), rel_err(mir, lam)), 1e-12, key=tot == totals[-1])
+    from prbdm.commands.eval import parse_poses
     _, warn_lim = parse_poses(f"{math.pi / 8:.15f}", n)
     _, warn_out = parse_poses("0.5", n)
     row.check("prbdm eval: silent at the limit, warns beyond (n theta > pi/2)", None,
@@ -415,9 +240,9 @@ def case_poses_4r(row: _Row, totals):
 def _degenerate_2r():
     """A uniform 2R model and pose where A = K^-1/2 M K^-1/2 is a multiple of the identity (the
     two eigenvalues coincide): solve A_12 = 0 and A_11 = A_22 for (theta_2, gamma_1)."""
-    torch = _torch()
+    torch = torch1()
     from scipy.optimize import fsolve
-    from . import model
+    from prbdm import model
     bt = model.BeamTensors.from_beams(uniform_panel(0.2, 0.02))
 
     def F(p):
@@ -433,11 +258,11 @@ def _degenerate_2r():
     return bt, float(theta2), float(g1)
 
 
-def case_degenerate(row: _Row, offset: float):
+def case_degenerate(row: Row, offset: float):
     """Nearly equal eigenvalues: eigenvalue-only gradients (eigvalsh) carry no 1/(mu_i - mu_j)
     factor, so they stay finite and match finite differences whatever the gap."""
-    torch = _torch()
-    from . import model
+    torch = torch1()
+    from prbdm import model
     bt, theta2, g1 = _degenerate_2r()
     P = torch.tensor([[0.3, theta2 + offset]], dtype=torch.float64)
     x = torch.tensor([0.2, g1], dtype=torch.float64, requires_grad=True)
@@ -450,8 +275,8 @@ def case_degenerate(row: _Row, offset: float):
     lam = lam_of(x, w)
     gap = float((lam[1] - lam[0]).detach() / lam[0].detach())
     beam = uniform_panel(0.2, 0.02)
-    _prbdm(row, beam, [0.2, g1, 0.8 - g1], P.numpy(), grad=False)
-    row.check("eigenvalues finite, sorted, positive", None, ok=_sane(lam.detach().numpy()))
+    prbdm_lam(row, beam, [0.2, g1, 0.8 - g1], P.numpy(), grad=False)
+    row.check("eigenvalues finite, sorted, positive", None, ok=is_sane(lam.detach().numpy()))
     grads = [torch.autograd.grad(lam[i], (x, w), retain_graph=True) for i in range(2)]
     ok = all(bool(torch.isfinite(g).all()) for gs in grads for g in gs)
     row.grads(ok)
@@ -470,7 +295,7 @@ def case_degenerate(row: _Row, offset: float):
     row.note = f"relative gap (lam_2 - lam_1)/lam_1 = {gap:.2e}"
 
 
-def case_float32(row: _Row, n: int, beams: int):
+def case_float32(row: Row, n: int, beams: int):
     """float32 against float64 on random beams and layouts: a symmetric eigensolver's error is
     ~eps ||A|| = eps mu_max, so the relative error of lam_i = 1/mu_i is ~eps lam_i / lam_1:
     mode 1 is good to a few eps32 whatever n, the highest mode loses cond(A) = lam_n/lam_1.
@@ -478,8 +303,8 @@ def case_float32(row: _Row, n: int, beams: int):
     result is not finite and positive: every unwarned float32 result must then be within
     PRECISION_RTOL of float64 in every mode (never a silent wrong number), and the warning must
     come where the float64 conditioning says it should (2x margin either side)."""
-    torch = _torch()
-    from . import model
+    torch = torch1()
+    from prbdm import model
     tol = model.PRECISION_RTOL
     rng = np.random.default_rng([7, n])
     worst_ratio = err1 = errn = silent = 0.0
@@ -491,15 +316,15 @@ def case_float32(row: _Row, n: int, beams: int):
         for poses in ("paper", "linear"):
             with warnings.catch_warnings(record=True) as w64:
                 warnings.simplefilter("always", model.PrecisionWarning)
-                l64 = _prbdm(row, beam, g, poses)
+                l64 = prbdm_lam(row, beam, g, poses)
             with warnings.catch_warnings(record=True) as w32:
                 warnings.simplefilter("always", model.PrecisionWarning)
-                l32 = _prbdm(_Row(), beam, g, poses, dtype=torch.float32)
+                l32 = prbdm_lam(Row(), beam, g, poses, dtype=torch.float32)
             f64_quiet &= not any(issubclass(w.category, model.PrecisionWarning) for w in w64)
             ws = [str(w.message) for w in w32 if issubclass(w.category, model.PrecisionWarning)]
             hit = bool(ws) and "float32" in ws[0] and "float64" in ws[0]
             calls, warned = calls + 1, warned + hit
-            ok32 = _sane(l32)
+            ok32 = is_sane(l32)
             sane &= ok32
             err = np.abs(l32 / l64 - 1)
             est = model.PRECISION_FACTOR * EPS32 * float((l64[..., -1] / l64[..., 0]).max())
@@ -533,8 +358,8 @@ def case_float32(row: _Row, n: int, beams: int):
 
 def _start_loss(beam: Beam, omega_truth, gamma) -> float:
     """The fit's loss [%] at ``gamma`` with its least-squares SCFs (paper poses, r = n modes)."""
-    torch = _torch()
-    from . import model
+    torch = torch1()
+    from prbdm import model
     bt = model.BeamTensors.from_beams(beam)
     g = torch.tensor(np.asarray(gamma, dtype=np.float64))
     n = len(gamma) - 1
@@ -544,17 +369,17 @@ def _start_loss(beam: Beam, omega_truth, gamma) -> float:
     return float(model.loss_percent(k[:, None] * mu, lam))
 
 
-def case_fit_bounds(row: _Row, corners):
+def case_fit_bounds(row: Row, corners):
     """Fits started on the gamma bounds (a corner of the bounded simplex: every link but one at
     0.025) must leave the bound and converge to a finite, feasible *local* optimum. A single start
     is a local method: its loss against the default multistart fit's is reported, not bounded
     (1.0 to 3.7 times on this beam; the multistart fit is what finds the global one)."""
-    from .fit import fit_prbdm
-    from .model import GAMMA_MAX, GAMMA_MIN
-    from .truth.analytic import beam_omega_scale
+    from prbdm.fit import fit_prbdm
+    from prbdm.model import GAMMA_MAX, GAMMA_MIN
+    from prbdm.truth.analytic import beam_omega_scale
     beam = random_beam(0, 3)
     n = 4
-    truth = _truth(row, beam) * beam_omega_scale(beam)
+    truth = beam_truth(row, beam) * beam_omega_scale(beam)
     multi = fit_prbdm(beam, truth, n)
     best = multi.loss_percent
     ratios = []
@@ -585,11 +410,11 @@ def case_fit_bounds(row: _Row, corners):
                     f"{j}: {r * best:.3g} % ({r:.2f}x)" for j, r in zip(corners, ratios)))
 
 
-def case_network(row: _Row, beam: Beam, expect_ood: bool):
+def case_network(row: Row, beam: Beam, expect_ood: bool):
     """The network on a shape: an OutOfDistributionWarning naming the feature when a feature lies
     outside the training range; otherwise its truth-frequency prediction must be close."""
-    from . import surrogate
-    from .truth import bending_frequencies
+    from prbdm import surrogate
+    from prbdm.truth import bending_frequencies
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         pred = surrogate.predict([beam], joints=4)
@@ -600,10 +425,10 @@ def case_network(row: _Row, beam: Beam, expect_ood: bool):
     g = pred.gamma[0]
     row.check("gamma on the bounded simplex, k > 0, omega finite", None,
               ok=bool(abs(g.sum() - 1) < 1e-12 and g.min() >= 0.025 - 1e-12
-                      and np.all(pred.k > 0) and _sane(pred.omega[0])
+                      and np.all(pred.k > 0) and is_sane(pred.omega[0])
                       and np.all(np.isfinite(pred.omega_truth))))
     truth = bending_frequencies(beam, "beam", 5).omega
-    err = _rel(pred.omega_truth[0][:4], truth[:4])
+    err = rel_err(pred.omega_truth[0][:4], truth[:4])
     if expect_ood:
         row.check("OutOfDistributionWarning naming the feature", None, ok=named)
         row.check("truth-frequency error (extrapolation, reported)", err, None, ok=True,
@@ -616,12 +441,12 @@ def case_network(row: _Row, beam: Beam, expect_ood: bool):
     row.note = (ood[0][:110] + "...") if ood else "no warning"
 
 
-def case_refusals(row: _Row):
+def case_refusals(row: Row):
     """Bad input is a BadInput naming the field, never a number."""
-    from . import model
-    from .fit import fit_prbdm
-    from .truth import bending_frequencies
-    torch = _torch()
+    from prbdm import model
+    from prbdm.fit import fit_prbdm
+    from prbdm.truth import bending_frequencies
+    torch = torch1()
     beam = uniform_panel()
     g4 = torch.tensor(GAMMA4, dtype=torch.float64)
     tries = [
@@ -641,7 +466,7 @@ def case_refusals(row: _Row):
          lambda: fit_prbdm(beam, [3.0, 2.0, 1.0, 4.0], 3)),
     ]
     for name, fld, fn in tries:
-        ok, msg = _raises(fn, fld)
+        ok, msg = refused(fn, fld)
         row.check(f"{name} -> BadInput naming {fld}", None, ok=ok)
     row.conds()
 
@@ -704,7 +529,10 @@ def _cases() -> list[Case]:
     varied = "init_gamma on the bounds (4R, random beam); vs the multistart fit"
     c.append(Case("fit from gamma corners 0, 4", varied, case_fit_bounds, dict(corners=[0, 4])))
     c.append(Case("fit from all gamma corners", varied, case_fit_bounds,
-                  dict(corners=[0, 1, 2, 3, 4]), quick=False))
+                  dict(corners=[0, 1, 2, 3, 4]), quick=False,
+                  known_failure="corner 2: a re-fit from its own result still gains 14 % (check: "
+                  "< 2 %); init_gamma lifts links off the bounds, so the re-fit is a new start, "
+                  "not a continuation (docs/stability.md, Limitations)"))
     c.append(Case("network: in-range beam", "random_beam(0, 100000), unseen", case_network,
                   dict(beam=random_beam(0, 100000), expect_ood=False)))
     c.append(Case("network: needle tip 1e5:1", "shape", case_network,
@@ -725,40 +553,6 @@ def _cases() -> list[Case]:
 CASES = _cases()
 
 
-def run_case(case: Case) -> dict:
-    """One row: the case's checks, condition numbers, gradient finiteness and time. An
-    unexpected exception is a failed row carrying its message (the suite never crashes)."""
-    row = _Row()
-    t0 = time.perf_counter()
-    try:
-        case.fn(row, **case.kwargs)
-    except Exception as exc:                                         # noqa: BLE001
-        tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        row.check("ran without an unexpected exception", None, ok=False)
-        row.note = tb[:200]
-    elapsed = time.perf_counter() - t0
-    failed = [c["check"] for c in row.checks if not c["passed"]]
-    # the accuracy shown: the case's key check, else the one nearest (or furthest past) its
-    # tolerance
-    graded = [c for c in row.checks if c["tol"] is not None and c["value"] is not None
-              and c["tol"] > 0]
-    bad = [c for c in graded if not c["passed"]]
-    worst = (max(bad, key=lambda c: c["value"] / c["tol"]) if bad else row.key
-             or max(graded, key=lambda c: c["value"] / c["tol"], default=None))
-    return {
-        "name": case.name, "varied": case.varied,
-        "passed": not failed, "n_checks": len(row.checks), "failed": failed,
-        "checks": row.checks,
-        "accuracy": None if worst is None else worst["value"],
-        "tolerance": None if worst is None else worst["tol"],
-        "accuracy_check": None if worst is None else worst["check"],
-        "cond_M": row.cond.get("M"), "cond_K": row.cond.get("K"), "cond_A": row.cond.get("A"),
-        "cond_fem_raw": row.cond.get("fem_raw"), "cond_fem": row.cond.get("fem"),
-        "grad_finite": row.grad_finite, "time_s": elapsed, "note": row.note,
-        "extra": row.extra,
-    }
-
-
 def run_suite(quick: bool = False) -> list[dict]:
     """Run every case (``quick``: the subset the tests run, about a minute on 2 busy cores) and
     return one dict per case: name, varied, passed, n_checks, failed (names), checks (each
@@ -766,114 +560,3 @@ def run_suite(quick: bool = False) -> list[dict]:
     its tolerance), cond_M, cond_K, cond_A, cond_fem_raw, cond_fem (None where not computed),
     grad_finite, time_s, note."""
     return [run_case(c) for c in CASES if c.quick or not quick]
-
-
-# ============================================================================ report
-def _cell(text: str) -> str:
-    """Text safe inside a Markdown table cell."""
-    return str(text).replace("|", "\\|")
-
-
-def _g(v, fmt="{:.1e}"):
-    if v is None:
-        return "–"
-    if isinstance(v, bool):
-        return "yes" if v else "**NO**"
-    return fmt.format(v)
-
-
-TRICKS = """\
-What keeps the conditioning in check (each verified in the code named):
-
-- **Nondimensional physics** (`prbdm/model.py`, `prbdm/truth/beam.py`): lengths / L, masses /
-  (rho t L^2), eigenvalues / (E t^2 / (rho L^4)); the beam FEM solves `(beta w'')'' = lambda beta w`
-  with `beta = b / b_max`. A 5 MPa elastomer, 1 mm or 50 mm thick, 2 mm or 0.5 m wide, gives the
-  same matrices as the steel reference (rows above: identical to 1e-10 or better), so
-  material and size never enter a condition number.
-- **`K^-1/2 M K^-1/2` symmetric standard form** (`model.eigenvalues_unit_k`): K is diagonal and
-  positive, so no Cholesky of M and no inverse; the fitted low modes are the *largest*
-  eigenvalues `mu = 1/lambda` of `A`, which `eigvalsh` returns with absolute error ~eps·mu_max,
-  i.e. relative error ~eps·lambda_i/lambda_1: mode 1 to round-off whatever cond(A).
-- **Eigenvalue-only gradients** (`torch.linalg.eigvalsh`): the gradient `u^T dA u` has no
-  `1/(mu_i - mu_j)` factor, so no guard is needed and none is applied: the gradients stay finite
-  at relative gaps from 1e-2 down to an exact crossing (1e-15); the pair's sum matches finite
-  differences at every gap, each eigenvalue alone where it is smooth (rows "near-equal
-  eigenvalues"). Eigenvectors are never differentiated.
-- **M is SPD at every pose** (SPEC §3): the rotary term `Σ_{j>=max(k,l)} J_j` is itself SPD, so
-  poses at and beyond n·theta = pi/2 stay solvable (cond(M) above; the library accepts them, `prbdm
-  eval` warns); the paper's pose sets stay inside the limit for every n of the suite.
-- **Span integrals about the span midpoint, `log1p` log-mean with a series near equal widths**
-  (`prbdm/sections.py`): short links far from the root and near-uniform links keep their digits;
-  `∫ dx / w` of a 1e11:1 needle's tip is within 2.4e-7 of its closed form (the rounding of the
-  tip width itself, ~eps·ratio/log(ratio), sets that floor).
-- **Precision guard** (`model._check_precision`, on every eigen-solve): a short float type
-  (float32, float16, bfloat16) with `4 eps · lambda_max/lambda_min > 1e-3`
-  (`model.PRECISION_FACTOR`, `PRECISION_RTOL`), or any eigenvalue not finite or not positive (any dtype), raises a
-  `model.PrecisionWarning` naming the dtype, the condition estimate and float64; one reduction on
-  the detached values, so autograd and batching are untouched (rows "float32": no unwarned
-  float32 result is off by more than 1e-3 in any mode).
-- **Width-ratio limits** (`prbdm/truth/__init__.py`: 1e6 for the truth; `prbdm/geometry.py`
-  `MAX_PRBDM_WIDTH_RATIO`: 1e12 for the PRBDM and the network): beyond them a `BadInput` naming
-  `half_width`, rather than a failed eigen-solve.
-- **gamma bounds by construction** (`prbdm/fit.py` `gamma_from_z`, `prbdm/surrogate.py`
-  softmax): every iterate and every prediction is on the bounded simplex; `init_gamma` starts on a
-  bound are moved to `|z_j| >= 0.02` (`INIT_Z_FLOOR`), because at `z_j = 0` the gradient in that
-  direction vanishes and the link would stay frozen on its bound.
-- **Truth FEM** (`prbdm/truth/beam.py`, `_linalg.py`, `_mesh.py`): element-local Hermite basis,
-  width grading with an element-size floor `1e-4 L (w/w_max)^(1/3)`, symmetric diagonal scaling
-  `D K D` (cond columns "FEM K raw" → "FEM DKD"), shift-invert Lanczos with one step of iterative
-  refinement of the LU, eigenvalues recomputed as Rayleigh quotients from the fields.
-"""
-
-
-def format_markdown(rows: list[dict]) -> str:
-    """A Markdown section: one table row per case, the failures spelled out, notes, the float32
-    table built from the float32 rows, and the list of conditioning tricks."""
-    out = ["## Stability on stiff and extreme cases", ""]
-    npass = sum(r["passed"] for r in rows)
-    out += [f"{npass} of {len(rows)} cases pass ({sum(r['n_checks'] for r in rows)} checks; "
-            "`python benchmarks/stability.py --details` lists every one). *accuracy*: the "
-            "case's key check (a failing check if any) against its tolerance. Condition numbers "
-            "are the largest over the case's poses and models: `M` and `K = diag(s)` "
-            "nondimensional, `A = K^-1/2 M K^-1/2` the symmetric problem actually solved, *FEM*: "
-            "the beam truth's stiffness as assembled / after its diagonal scaling.", "",
-            "| case | varied | checks | accuracy | tol. | accuracy of | cond M | cond K | cond A "
-            "| FEM K / DKD | grad finite | s |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        checks = f"{r['n_checks'] - len(r['failed'])}/{r['n_checks']}"
-        if r["failed"]:
-            checks = f"**{checks}**"
-        fem = ("–" if r["cond_fem"] is None
-               else f"{r['cond_fem_raw']:.0e} / {r['cond_fem']:.0e}")
-        out.append(f"| {r['name']} | {r['varied']} | {checks} | {_g(r['accuracy'])} | "
-                   f"{_g(r['tolerance'])} | {_cell(r['accuracy_check'] or '–')} | "
-                   f"{_g(r['cond_M'])} | {_g(r['cond_K'])} | {_g(r['cond_A'])} | {fem} | "
-                   f"{_g(r['grad_finite'])} | {r['time_s']:.2f} |")
-    out.append("")
-    failed = [r for r in rows if not r["passed"]]
-    if failed:
-        out += ["**Failures:**", ""]
-        out += [f"- {r['name']}: {'; '.join(r['failed'])}" + (f" ({r['note']})" if r["note"] else "")
-                for r in failed]
-        out.append("")
-    notes = [r for r in rows if r["note"] and r["passed"]]
-    if notes:
-        out += ["Notes:", ""] + [f"- {r['name']}: {r['note']}" for r in notes] + [""]
-    f32 = [r for r in rows if "f32_err1" in r.get("extra", {})]
-    if f32:
-        out += ["float32 against float64 (8 random beams, a random gamma each, paper and linear "
-                "poses; relative eigenvalue errors, worst case; *PrecisionWarning*: solves that "
-                "warned, out of all):", "",
-                "| n | cond A | eps32 · cond A | mode 1 | highest mode | max err / (eps32 λ_i/λ_1) "
-                "| finite, sorted, positive | PrecisionWarning |", "|---|---|---|---|---|---|---|---|"]
-        for r in f32:
-            e = r["extra"]
-            out.append(f"| {r['name'].split('= ')[-1]} | {e['f32_condA']:.1e} | "
-                       f"{EPS32 * e['f32_condA']:.2g} | {e['f32_err1']:.1e} | "
-                       f"{e['f32_errn']:.1e} | {e['f32_ratio']:.1f} | "
-                       f"{'yes' if e['f32_sane'] else '**no**'} | "
-                       f"{e['f32_warned']} of {e['f32_calls']} |")
-        out.append("")
-    out.append(TRICKS)
-    return "\n".join(out)
