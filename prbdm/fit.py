@@ -43,7 +43,7 @@ import torch
 from . import objectives
 from .errors import BadInput
 from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, eigenvalues_unit_k,
-                    frequency_errors, make_poses, uniform_gamma)
+                    frequency_errors, loss_percent, make_poses, uniform_gamma)
 
 __all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDIDATES",
            "REFINE_ITER", "gamma_from_z",
@@ -490,18 +490,17 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
 def _result(beam, bt, bi, z, poses, omega_truth, lam_hat, r, law, S, near, spread, iters,
             time_s, seed, best, objective="eigenvalue"):
     b1 = _rows(bt, torch.tensor([bi]))
-    res, k = _residuals(b1, z[None], poses, lam_hat[None], r, law, objective)
     gamma = gamma_from_z(z[None])
-    mu = eigenvalues_unit_k(b1, gamma, poses, law)[0]
-    lam = mu * k[0][:, None] * b1.lambda0[0]
+    mu = eigenvalues_unit_k(b1, gamma, poses, law)[0]                    # (m, n), k = 1
+    _, k = objectives.residuals(objective, mu[..., :r], lam_hat[:r])
+    lam_nd = mu * k[:, None]
+    lam = lam_nd * b1.lambda0[0]
     fe = frequency_errors(lam, omega_truth, r)
-    # both measures whatever was minimised: the paper's loss and the frequency objective
-    lam_nd = mu * k[0][:, None]
-    paper = float(objectives.eigenvalue_loss(
-        (lam_nd[..., :r] - lam_hat[:r]) / torch.linalg.vector_norm(lam_hat[:r])))
-    freq = float(objectives.frequency_measure(lam_nd, lam_hat, r))
-    return FitResult(gamma=gamma[0].numpy(), k=k[0].numpy(), loss_percent=paper,
-                     objective=objective, frequency_percent=freq,
+    # both measures, whatever was minimised: the paper's loss and the frequency objective
+    return FitResult(gamma=gamma[0].numpy(), k=k.numpy(),
+                     loss_percent=float(loss_percent(lam_nd, lam_hat, r)),
+                     objective=objective,
+                     frequency_percent=float(objectives.frequency_measure(lam_nd, lam_hat, r)),
                      omega=lam.sqrt().numpy(), omega_truth=omega_truth.numpy(),
                      freq_error=fe.numpy(), poses=poses.numpy(), law=law, modes=r, n_starts=S,
                      n_near_best=near, gamma_spread=spread, iterations=iters, time_s=time_s,
