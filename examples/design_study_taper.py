@@ -128,7 +128,7 @@ for name, e, lo in [("network, direct frequencies", err(f_direct[check, :4], f_t
         cells += f"{fn(lo):9.3f}" if lo is not None else f"{'':9s}"
         print(f"{name if stat == 'median' else '':28s}{stat:>6s}{cells}".rstrip())
 print("(the PRBDMs' first-mode errors are the paper's loss at work: it weighs each mode by its "
-      "eigenvalue, so mode 4 dominates; README section 4)")
+      "eigenvalue, so mode 4 dominates; docs/fit.md §3)")
 
 # ---------------------------------------------------------------- time
 n = args.designs

@@ -56,7 +56,7 @@ INIT_Z_FLOOR = 0.02
 
 def default_starts(n: int) -> int:
     """Start points used when none are given: 64 up to 4 joints, 128 beyond (measured: with
-    fewer, more than 1 beam in 16 misses the best optimum by over 1 %; see the README)."""
+    fewer, more than 1 beam in 16 misses the best optimum by over 1 %; see docs/fit.md §4)."""
     return DEFAULT_STARTS if n <= 4 else 2 * DEFAULT_STARTS
 
 
@@ -162,7 +162,7 @@ def start_points(n: int, starts: int, seed: int, dtype=torch.float64) -> torch.T
     its volume and holds many narrow local optima next to each other; flat draws put one or two
     starts there. Measured on 60 beams of seed 7, 5 seeds each, n = 4, 64 starts: runs more than
     1 % above the best loss found for the beam fell from 29 of 300 (two fixed + flat draws) to 3
-    of 300, at no extra time per beam (``benchmarks/fit_quality.py starts``; README §4)."""
+    of 300, at no extra time per beam (``benchmarks/fit_quality.py starts``; docs/fit.md §4)."""
     fixed = [uniform_gamma(n, dtype), torch.full((n + 1,), 1.0 / (n + 1), dtype=dtype)]
     fixed += [long_root_gamma(n, g0, dtype) for g0 in LONG_ROOTS]
     fixed = fixed[:starts]

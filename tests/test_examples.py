@@ -16,7 +16,7 @@ NUMBER = r"[-+]?\d+(?:\.\d*)?(?:e[-+]?\d+)?"
 
 
 def args_for(script: Path, tmp_path: Path) -> list[str]:
-    # the design study runs at full size (about 5 s): the test checks what the README shows
+    # the design study runs at full size (about 5 s): the test checks what docs/design-study.md shows
     return {"design_study_taper.py": ["--out", str(tmp_path)]}.get(script.name, [])
 
 
@@ -68,11 +68,11 @@ def check_design_study(out: str, folder: Path):
     assert max(table_row(out, direct, "median")) < 0.5
     assert max(table_row(out, direct, "max")) < 1.5
     # the PRBDMs follow the paper's loss, which the highest mapped mode dominates: mode 4 and the
-    # loss are tight, mode 1 is not (20-25 % here, README section 4), so only mode 4 is bounded
+    # loss are tight, mode 1 is not (20-25 % here, docs/fit.md §3), so only mode 4 is bounded
     net_med, net_max = (table_row(out, "network PRBDM, pose 0", s) for s in ("median", "max"))
     assert net_med[3] < 1.0 and net_med[4] < 2.0 and net_max[4] < 3.2   # held-out median, p95
     fit_max = table_row(out, "optimised fit PRBDM, pose 0", "max")
-    assert fit_max[4] < 0.5                  # README section 4: max 0.36 % over random beams
+    assert fit_max[4] < 0.5                  # docs/fit.md §3: max 0.36 % over random beams
 
     t_net = numbers(line_with(out, "  network (batch of 200)").split(")", 1)[1])[0]
     t_fem = numbers(line_with(out, "  beam FEM  "))[0]

@@ -86,7 +86,7 @@ def run(args) -> int:
 
     import torch
 
-    # one process, small batched problems: one thread is fastest (as `prbdm fit`; README,
+    # one process, small batched problems: one thread is fastest (as `prbdm fit`; docs/choices.md,
     # "Threads"); with the default threads a lone fit took 5.7 s instead of 0.64 s on a busy
     # 2-core machine
     torch.set_num_threads(1)
