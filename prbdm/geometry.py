@@ -356,12 +356,12 @@ def check_beam(beam: Beam, model: str | None = None) -> None:
                            f"{values[name]:.6g} {unit}")
 
 
-def _unit_guess(value, lo, hi, units) -> str:
+def _unit_guess(name, si, value, lo, hi, units) -> str:
     """The first ``(factor, unit)`` of ``units`` that brings ``value`` into ``[lo, hi]``, as a
     clause for a warning ('' when none does)."""
     for factor, unit in units:
         if lo <= value * factor <= hi:
-            return f"; if it is in {unit}, it is {value * factor:.6g} in SI"
+            return f"; if it was meant in {unit}, {name} = {value * factor:.6g} {si}"
     return ""
 
 
@@ -371,8 +371,8 @@ def unit_warnings(beam: Beam) -> list[str]:
     L, t, mat = beam.length, beam.thickness, beam.material
     lo, hi = PLAUSIBLE["L"]
     if not lo <= L <= hi:
-        guess = _unit_guess(L, lo, hi, [(1e-3, "millimetres"), (1e-2, "centimetres"),
-                                        (1e-6, "micrometres")] if L > hi else [])
+        units = [(1e-3, "millimetres"), (1e-2, "centimetres"), (1e-6, "micrometres")]
+        guess = _unit_guess("L", "m", L, lo, hi, units if L > hi else [])
         out.append(f"L = {L:.6g} m is outside the plausible {lo:g}-{hi:g} m{guess} (every "
                    "length in a beam file is in metres)")
     lo, hi = PLAUSIBLE["thickness/L"]
@@ -381,13 +381,13 @@ def unit_warnings(beam: Beam) -> list[str]:
                    "too small, or L in the wrong unit? (every length is in metres)")
     lo, hi = PLAUSIBLE["E"]
     if not lo <= mat.E <= hi:
-        guess = _unit_guess(mat.E, 1e8, hi, [(1e9, "GPa"), (1e6, "MPa"), (1e3, "kPa")]) \
-            if mat.E < lo else ""
+        units = [(1e9, "GPa"), (1e6, "MPa"), (1e3, "kPa")]
+        guess = _unit_guess("E", "Pa", mat.E, 1e8, hi, units if mat.E < lo else [])
         out.append(f"material.E = {mat.E:.6g} Pa is outside the plausible {lo:g}-{hi:g} Pa"
                    f"{guess} (E is in pascals)")
     lo, hi = PLAUSIBLE["rho"]
     if not lo <= mat.rho <= hi:
-        guess = _unit_guess(mat.rho, lo, hi, [(1e3, "g/cm^3")] if mat.rho < lo
+        guess = _unit_guess("rho", "kg/m^3", mat.rho, lo, hi, [(1e3, "g/cm^3")] if mat.rho < lo
                             else [(1e-3, "g/m^3")])
         out.append(f"material.rho = {mat.rho:.6g} kg/m^3 is outside the plausible {lo:g}-{hi:g} "
                    f"kg/m^3{guess} (rho is in kg/m^3)")
