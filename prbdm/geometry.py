@@ -301,9 +301,10 @@ HARD_LIMITS = {"L": (1e-9, 1e9, "m"), "thickness": (1e-9, 1e9, "m"),
                "material.rho": (1e-3, 1e7, "kg/m^3")}
 #: what a real panel plausibly has; outside, a warning names the likely unit mistake (not an
 #: error: a 150 m blade or an aerogel is possible). Field -> (low, high): L from a 0.1 mm MEMS
-#: cantilever to a 100 m blade; E from a soft gel (10 kPa) to diamond (1.2e12 Pa); rho from a
-#: foam (10 kg/m^3) to osmium (22 600 kg/m^3); thickness relative to L from a 10 um foil on 1 m
-PLAUSIBLE = {"L": (1e-4, 100.0), "E": (1e4, 1.5e12), "rho": (10.0, 2.3e4),
+#: cantilever to a 100 m blade; E from a soft silicone (0.1 MPa; below it a modulus in MPa, e.g.
+#: 69000 for aluminium, would pass unnoticed) to diamond (1.2e12 Pa); rho from a foam
+#: (10 kg/m^3) to osmium (22 600 kg/m^3); thickness relative to L from a 10 um foil on 1 m
+PLAUSIBLE = {"L": (1e-4, 100.0), "E": (1e5, 1.5e12), "rho": (10.0, 2.3e4),
              "thickness/L": (1e-5, MAX_THICKNESS_RATIO)}
 
 

@@ -66,11 +66,8 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    from ..geometry import check_beam
-
-    beam, info = read_beam(args, "compare")
     sur = load_surrogate(args)
-    check_beam(beam, sur.truth)
+    beam, info = read_beam(args, "compare", model=sur.truth)
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
 

@@ -50,7 +50,7 @@ def add_arguments(parser):
 def run(args) -> int:
     from .eval import parse_poses
 
-    beam, info = read_beam(args, "fit")
+    beam, info = read_beam(args, "fit", model=None if args.truth == "auto" else args.truth)
     n = args.joints
     modes = args.modes or n
     poses, warnings = parse_poses(args.poses, n)

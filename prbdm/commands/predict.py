@@ -93,11 +93,9 @@ def predict_one(sur, beam) -> dict:
 def run(args) -> int:
     import time
 
-    from ..geometry import check_beam
-
-    beam, info = read_beam(args, "predict")
     sur = load_surrogate(args)
-    check_beam(beam, sur.truth)         # what `prbdm truth --model TRUTH` refuses, refused here
+    # refuses what `prbdm truth --model TRUTH` refuses, with the same message
+    beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
     out = predict_one(sur, beam)
     out["time_s"] = time.perf_counter() - t0
