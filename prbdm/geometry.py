@@ -64,6 +64,11 @@ STEEL = Material()
 
 
 def _as_float_array(value, name: str) -> np.ndarray:
+    if isinstance(value, (list, tuple)):
+        # NumPy would read "1e-3" and True as numbers: a beam file must hold numbers only
+        bad = [v for v in value if isinstance(v, (bool, str, bytes))]
+        if bad:
+            raise BadInput(f"{name}: must be a list of numbers, got {_show(bad[0])}")
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
