@@ -301,6 +301,21 @@ def test_no_progress_bar_when_stderr_is_not_a_terminal(capsys):
     close()
 
 
+def test_progress_bar_on_a_terminal(monkeypatch):
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+    screen = Terminal()
+    monkeypatch.setattr(sys, "stderr", screen)
+    update, close = _common.progress_bar("prbdm fit", delay=0.0)
+    for i in range(1, 31):
+        update(i, 150)
+    close()
+    assert "prbdm fit" in screen.getvalue() and "/150" in screen.getvalue()
+
+
 # ------------------------------------------------------------------ missing extras
 def test_dataset_without_pyarrow_names_the_extra(run, monkeypatch, tmp_path):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
