@@ -310,8 +310,12 @@ def test_progress_bar_on_a_terminal(monkeypatch):
     screen = Terminal()
     monkeypatch.setattr(sys, "stderr", screen)
     update, close = _common.progress_bar("prbdm fit", delay=0.0)
+    import time
+
     for i in range(1, 31):
         update(i, 150)
+    time.sleep(0.2)             # past tqdm's minimum refresh interval (0.1 s)
+    update(31, 150)
     close()
     assert "prbdm fit" in screen.getvalue() and "/150" in screen.getvalue()
 
