@@ -329,9 +329,12 @@ def check_beam(beam: Beam, model: str | None = None) -> None:
                        "degenerates into disconnected pieces")
     t_ratio = beam.thickness / L
     if not t_ratio <= MAX_THICKNESS_RATIO:
+        # the usual cause: a thickness in millimetres beside a length in metres
+        hint = (f"; if it was meant in millimetres, thickness = {beam.thickness * 1e-3:.6g} m"
+                if t_ratio * 1e-3 <= MAX_THICKNESS_RATIO else "")
         raise BadInput(f"thickness: must be at most {MAX_THICKNESS_RATIO:g} L for thin-beam and "
                        f"thin-plate theory; this beam is {t_ratio:.3g} L thick "
-                       f"(t = {beam.thickness:.6g} m, L = {L:.6g} m)")
+                       f"(t = {beam.thickness:.6g} m, L = {L:.6g} m){hint}")
     if model in ("beam", "analytic"):
         b_ratio = float(2 * w.max() / L)
         if not b_ratio <= MAX_BEAM_WIDTH_RATIO:

@@ -206,6 +206,14 @@ def test_unit_mistake_warns_on_stderr_and_in_json(run, beam_file, data, needle):
         assert any(needle in w for w in warnings), warnings
 
 
+def test_thickness_in_millimetres_is_refused_with_the_hint(run, beam_file):
+    rc, _, err = run("predict", beam_file({**TAPER, "thickness": 3}), "--joints", "4")
+    assert rc == 2
+    line = _one_error_line(err, "predict")
+    assert line.startswith("thickness: must be at most 0.2 L")
+    assert line.endswith("if it was meant in millimetres, thickness = 0.003 m")
+
+
 def test_plausible_beams_get_no_unit_warning():
     for i in range(200):
         assert unit_warnings(random_beam(0, i)) == []
