@@ -97,6 +97,18 @@ def test_predict_refuses_what_truth_refuses_at_the_edge_of_thin_theory(run, beam
             assert err_truth.split("error: ")[1] == err_pred.split("error: ")[1]
 
 
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_command_reports_the_input_block(run, beam_file, tmp_path, command):
+    """The unit warning reaches stderr and the JSON's ``input`` of every beam command."""
+    data = {**TAPER, "material": {"E": 69e9, "rho": 2.7, "nu": 0.33}}
+    rc, out, err = run(command, beam_file(data), *_args(command, tmp_path), "--json")
+    assert rc == 0, err
+    block = json.loads(out)["input"]
+    assert block["stations"] == 3 and block["simplified"] is None
+    assert len(block["warnings"]) == 1 and "g/cm^3" in block["warnings"][0]
+    assert f"prbdm {command}: warning: material.rho" in err
+
+
 def test_width_ratio_limit_is_the_same_for_the_library_and_commands():
     ok = Beam(x=[0, 1], half_width=[0.1, 0.1 / (0.99 * MAX_WIDTH_RATIO)], thickness=0.01)
     check_beam(ok)

@@ -53,7 +53,7 @@ def run(args) -> int:
     if args.plot:
         _check_plot_path(args.plot)
         require("matplotlib", purpose="--plot")
-    beam, info = read_beam(args, "simulate")
+    beam, beam_info = read_beam(args, "simulate")
     fit, warnings = fit_from_args(args, beam)
     res = simulate(beam, fit, pose=args.pose, tip_deflection=args.tip_deflection,
                    tip_impulse=args.tip_impulse, damping=args.damping, duration=args.duration,
@@ -66,7 +66,7 @@ def run(args) -> int:
             raise BadInput(f"--plot: cannot write {args.plot!r} ({exc})") from None
     info = res.info
     if args.json:
-        print_json({**res.to_dict(), "input": info})
+        print_json({**res.to_dict(), "input": beam_info})
         return 0
     for w in info["warnings"]:
         sys.stderr.write(f"warning: {w}\n")
