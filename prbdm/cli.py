@@ -73,6 +73,16 @@ def main(argv=None) -> int:
     except BadInput as exc:
         sys.stderr.write(f"prbdm {args.command}: error: {exc}\n")
         return 2
+    except ModuleNotFoundError as exc:
+        # an optional extra that the command checked too late (or not at all): still one line
+        # with the install command, not a traceback
+        from .commands._common import missing_extra_message
+
+        msg = missing_extra_message(exc.name or "")
+        if msg is None:
+            raise
+        sys.stderr.write(f"prbdm {args.command}: error: {msg}\n")
+        return 2
     except BrokenPipeError:
         return 0
     except KeyboardInterrupt:

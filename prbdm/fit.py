@@ -234,7 +234,7 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6, objective="eigenval
 
 def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quorum,
           agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3, window=15, window_rtol=1e-6,
-          objective="eigenvalue"):
+          objective="eigenvalue", progress=None):
     """Batched BFGS over rows (start x beam), z kept on the unit sphere. Returns z, loss, iters.
 
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
@@ -273,6 +273,8 @@ def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quo
     alphas = torch.tensor([1.0, 0.3, 0.1, 0.02], dtype=dtype)
     it = 0
     for it in range(1, max_iter + 1):
+        if progress is not None:
+            progress(it, max_iter)
         idx = torch.nonzero(active).squeeze(-1)
         if idx.numel() == 0:
             break
@@ -390,7 +392,8 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
 def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
              poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
              rep_rtol: float = 1e-3, quorum: int | None = None,
-             init_gamma=None, objective: str = "eigenvalue") -> list[FitResult]:
+             init_gamma=None, objective: str = "eigenvalue",
+             progress=None) -> list[FitResult]:
     """Fit n-joint PRBDMs to several beams at once (all starts of all beams in one batch).
 
     beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
@@ -401,7 +404,8 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     beam from its own gamma(s) instead (e.g. a network's candidates, then a few iterations refine
     them, see :func:`refine_starts`); ``starts`` is then H. ``objective``: what is minimised,
     ``"eigenvalue"`` (the paper's loss) or ``"frequency"`` (the worst relative frequency error
-    per pose, see :mod:`prbdm.objectives`); every result reports both. Returns one
+    per pose, see :mod:`prbdm.objectives`); every result reports both. ``progress``: called as
+    ``progress(iteration, max_iter)`` at each iteration (a progress bar). Returns one
     :class:`FitResult` per beam.
     """
     t0 = time.perf_counter()
@@ -463,7 +467,7 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     quorum = quorum or max(3, S // 16)
     quorum = min(quorum, S)
     z, loss, iters = _bfgs(bt, beam_of_row, z, pose_t, lam_hat, r, law, max_iter, B, quorum,
-                           objective=objective)
+                           objective=objective, progress=progress)
     # polish each beam's near-best starts with Gauss-Newton steps
     best = torch.stack([loss[beam_of_row == bi].min() for bi in range(B)])
     top = torch.nonzero(loss <= best[beam_of_row] * (1 + rep_rtol) + 1e-12).squeeze(-1)

@@ -18,7 +18,8 @@ import numpy as np
 
 from .errors import BadInput
 
-__all__ = ["Material", "Beam", "STEEL", "random_beam", "RANDOM_DEFAULTS", "load_beam"]
+__all__ = ["Material", "Beam", "STEEL", "random_beam", "RANDOM_DEFAULTS", "load_beam",
+           "check_beam", "unit_warnings", "simplify_planform"]
 
 
 def _show(v) -> str:
@@ -63,6 +64,11 @@ STEEL = Material()
 
 
 def _as_float_array(value, name: str) -> np.ndarray:
+    if isinstance(value, (list, tuple)):
+        # NumPy would read "1e-3" and True as numbers: a beam file must hold numbers only
+        bad = [v for v in value if isinstance(v, (bool, str, bytes))]
+        if bad:
+            raise BadInput(f"{name}: must be a list of numbers, got {_show(bad[0])}")
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -178,11 +184,19 @@ class Beam:
         unknown = sorted(set(mat) - {"E", "rho", "nu"})
         if unknown:
             raise BadInput(f"material: unknown key {unknown[0]!r}; allowed keys are E, nu, rho")
+        material = Material(**mat)          # the values given are checked first
+        # all or nothing (docs/choices.md, "Material block"): a block with only E would take
+        # steel's density, and a 69 GPa aluminium panel would weigh 2.9x what it does
+        missing = [key for key in ("E", "rho", "nu") if key not in mat]
+        if "material" in data and missing:
+            raise BadInput(f"material: missing key(s) {', '.join(missing)}; give all of E [Pa], "
+                           "rho [kg/m^3] and nu, or leave out the material block for steel "
+                           f"(E = {STEEL.E:g} Pa, rho = {STEEL.rho:g} kg/m^3, nu = {STEEL.nu:g})")
         name = data.get("name", "")
         if not isinstance(name, str):
             raise BadInput("name: must be a string")
         return cls(x=data["x"], half_width=data["half_width"], thickness=data["thickness"],
-                   material=Material(**mat), name=name)
+                   material=material, name=name)
 
     @classmethod
     def from_polygon(cls, polygon, thickness: float, material: Material | None = None,
@@ -259,6 +273,186 @@ def check_prbdm_width_ratio(beam: Beam) -> None:
     if not ratio <= MAX_PRBDM_WIDTH_RATIO:
         raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); the PRBDM accepts "
                        f"at most {MAX_PRBDM_WIDTH_RATIO:.0e}")
+
+
+# ---------------------------------------------------------------------- validation
+# One home for every limit a beam must meet before any command uses it (truth, fit, predict,
+# eval, compare, export, simulate all call check_beam), so each command refuses the same beams
+# with the same message. prbdm.truth re-exports the truth's limits under their old names.
+
+#: planforms whose width varies more than this (max/min) are refused as degenerate, every model
+MAX_WIDTH_RATIO = 1e6
+#: the plate model is verified up to this width ratio (a needle tapering 0.1 m -> 1e-5 m stays
+#: within 1.3e-4 of its slender-beam limit); at 1e5 its first frequency came out 3.5x (mapped
+#: mesh) or 2.3x (Delaunay) too high, so it is refused beyond instead of answering wrongly
+MAX_PLATE_WIDTH_RATIO = 1e4
+#: thin theory only (Euler-Bernoulli beam, Kirchhoff plate: no shear, no rotary inertia): a beam
+#: thicker than this fraction of its length is refused, all models. The paper's random generator
+#: (``random_beam``) stays at or below 0.05 (t <= 50 mm, L = 1 m)
+MAX_THICKNESS_RATIO = 0.2
+#: ``beam`` and ``analytic``: largest full width over length, ``2 max(half_width) / L``. Beyond it
+#: the panel is a plate clamped along its long edge, not a beam (the same bound as the plate
+#: model's half-width <= 5 L); random beams reach at most 1 (half-width <= 0.5 m, L = 1 m)
+MAX_BEAM_WIDTH_RATIO = 10.0
+#: ``plate``: largest half-width over length (the plate mesh is verified up to it)
+MAX_PLATE_ASPECT = 5.0
+#: ``plate``: largest thickness over full width, ``t / (2 max(half_width))``; a panel thicker
+#: than half its widest chord is no thin plate. Random beams: at most 0.11 in 20 000 (seed 0)
+MAX_PLATE_THICKNESS_RATIO = 0.5
+#: hard limits, far outside any panel, so that nothing downstream over- or underflows in float64
+#: (L^4 and t^3 appear in the frequency scale): field -> (low, high, unit)
+HARD_LIMITS = {"L": (1e-9, 1e9, "m"), "thickness": (1e-9, 1e9, "m"),
+               "max(half_width)": (1e-9, 1e9, "m"), "material.E": (1.0, 1e15, "Pa"),
+               "material.rho": (1e-3, 1e7, "kg/m^3")}
+#: what a real panel plausibly has; outside, a warning names the likely unit mistake (not an
+#: error: a 150 m blade or an aerogel is possible). Field -> (low, high): L from a 0.1 mm MEMS
+#: cantilever to a 100 m blade; E from a soft silicone (0.1 MPa; below it a modulus in MPa, e.g.
+#: 69000 for aluminium, would pass unnoticed) to diamond (1.2e12 Pa); rho from a foam
+#: (10 kg/m^3) to osmium (22 600 kg/m^3); thickness relative to L from a 10 um foil on 1 m
+PLAUSIBLE = {"L": (1e-4, 100.0), "E": (1e5, 1.5e12), "rho": (10.0, 2.3e4),
+             "thickness/L": (1e-5, MAX_THICKNESS_RATIO)}
+
+
+def check_beam(beam: Beam, model: str | None = None) -> None:
+    """BadInput (one line naming the field and the allowed range) unless ``beam`` is within
+    thin theory, the width-ratio limit and the hard limits; ``model`` ``"beam"``/``"analytic"``
+    or ``"plate"`` adds that truth model's own limits. ``None``: the limits every model shares
+    (the PRBDM's own commands: ``eval``)."""
+    if not isinstance(beam, Beam):
+        raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
+    w = beam.half_width
+    L = beam.length
+    ratio = float(w.max() / w.min())
+    if not math.isfinite(ratio) or ratio > MAX_WIDTH_RATIO:
+        raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); at most "
+                       f"{MAX_WIDTH_RATIO:.0e} is accepted, beyond which the planform "
+                       "degenerates into disconnected pieces")
+    t_ratio = beam.thickness / L
+    if not t_ratio <= MAX_THICKNESS_RATIO:
+        # the usual cause: a thickness in millimetres beside a length in metres
+        hint = (f"; if it was meant in millimetres, thickness = {beam.thickness * 1e-3:.6g} m"
+                if t_ratio * 1e-3 <= MAX_THICKNESS_RATIO else "")
+        raise BadInput(f"thickness: must be at most {MAX_THICKNESS_RATIO:g} L for thin-beam and "
+                       f"thin-plate theory; this beam is {t_ratio:.3g} L thick "
+                       f"(t = {beam.thickness:.6g} m, L = {L:.6g} m){hint}")
+    if model in ("beam", "analytic"):
+        b_ratio = float(2 * w.max() / L)
+        if not b_ratio <= MAX_BEAM_WIDTH_RATIO:
+            raise BadInput(f"half_width: model {model!r} needs a full width 2 max(half_width) of "
+                           f"at most {MAX_BEAM_WIDTH_RATIO:g} L (beyond it the panel is a plate, "
+                           f"not a beam); this planform is {b_ratio:.3g} L wide (L = {L:.6g} m)")
+    if model == "plate":
+        if ratio > MAX_PLATE_WIDTH_RATIO:
+            raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model 'plate' "
+                           f"accepts at most {MAX_PLATE_WIDTH_RATIO:.0e} (the beam model "
+                           f"accepts {MAX_WIDTH_RATIO:.0e})")
+        aspect = float(w.max() / L)
+        if aspect > MAX_PLATE_ASPECT:
+            raise BadInput(f"half_width: the plate model needs a half-width of at most "
+                           f"{MAX_PLATE_ASPECT:g} L; this planform is {aspect:.3g} L wide "
+                           f"(L = {L:.6g} m)")
+        tb = float(beam.thickness / (2 * w.max()))
+        if not tb <= MAX_PLATE_THICKNESS_RATIO:
+            raise BadInput(f"thickness: the plate model needs a thickness of at most "
+                           f"{MAX_PLATE_THICKNESS_RATIO:g} x the full width 2 max(half_width) for "
+                           f"thin-plate theory; this panel's is {tb:.3g} x (the beam model has "
+                           "no such limit)")
+    values = {"L": L, "thickness": beam.thickness, "max(half_width)": float(w.max()),
+              "material.E": beam.material.E, "material.rho": beam.material.rho}
+    for name, (lo, hi, unit) in HARD_LIMITS.items():
+        if not lo <= values[name] <= hi:
+            raise BadInput(f"{name}: must lie in [{lo:g}, {hi:g}] {unit}, got "
+                           f"{values[name]:.6g} {unit}")
+
+
+def _unit_guess(name, si, value, lo, hi, units) -> str:
+    """The first ``(factor, unit)`` of ``units`` that brings ``value`` into ``[lo, hi]``, as a
+    clause for a warning ('' when none does)."""
+    for factor, unit in units:
+        if lo <= value * factor <= hi:
+            return f"; if it was meant in {unit}, {name} = {value * factor:.6g} {si}"
+    return ""
+
+
+def unit_warnings(beam: Beam) -> list[str]:
+    """Warnings for sizes outside :data:`PLAUSIBLE`, each naming the likely unit mistake."""
+    out = []
+    L, t, mat = beam.length, beam.thickness, beam.material
+    lo, hi = PLAUSIBLE["L"]
+    if not lo <= L <= hi:
+        units = [(1e-3, "millimetres"), (1e-2, "centimetres"), (1e-6, "micrometres")]
+        guess = _unit_guess("L", "m", L, lo, hi, units if L > hi else [])
+        out.append(f"L = {L:.6g} m is outside the plausible {lo:g}-{hi:g} m{guess} (every "
+                   "length in a beam file is in metres)")
+    lo, hi = PLAUSIBLE["thickness/L"]
+    if t / L < lo:
+        out.append(f"thickness = {t:.6g} m is only {t / L:.3g} L (below {lo:g} L): is it 1000x "
+                   "too small, or L in the wrong unit? (every length is in metres)")
+    lo, hi = PLAUSIBLE["E"]
+    if not lo <= mat.E <= hi:
+        units = [(1e9, "GPa"), (1e6, "MPa"), (1e3, "kPa")]
+        guess = _unit_guess("E", "Pa", mat.E, 1e8, hi, units if mat.E < lo else [])
+        out.append(f"material.E = {mat.E:.6g} Pa is outside the plausible {lo:g}-{hi:g} Pa"
+                   f"{guess} (E is in pascals)")
+    lo, hi = PLAUSIBLE["rho"]
+    if not lo <= mat.rho <= hi:
+        guess = _unit_guess("rho", "kg/m^3", mat.rho, lo, hi, [(1e3, "g/cm^3")] if mat.rho < lo
+                            else [(1e-3, "g/m^3")])
+        out.append(f"material.rho = {mat.rho:.6g} kg/m^3 is outside the plausible {lo:g}-{hi:g} "
+                   f"kg/m^3{guess} (rho is in kg/m^3)")
+    return out
+
+
+# ---------------------------------------------------------------------- large planforms
+#: planforms with more stations than this are simplified before use (every command): the section
+#: integrals and the meshes cost in proportion to the stations, and a scanned outline of 10 000
+#: points describes the same panel as a few dozen
+SIMPLIFY_ABOVE = 200
+#: the simplified half-width stays within this fraction of the original *local* half-width at
+#: every x. Mass and bending stiffness per unit length are both proportional to the width, so
+#: (Courant-Fischer) every beam and PRBDM eigenvalue moves by at most a factor (1 + r)/(1 - r):
+#: frequencies within ~1e-4, far below any model's own error
+SIMPLIFY_RTOL = 1e-4
+
+
+def _simplify_indices(x: np.ndarray, w: np.ndarray, rtol: float) -> np.ndarray:
+    """Douglas-Peucker on the polyline (x, w) with the *vertical* deviation relative to the local
+    half-width: the stations to keep (first and last always)."""
+    keep = np.zeros(x.size, dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, x.size - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        xs, ws = x[i + 1:j], w[i + 1:j]
+        chord = w[i] + (w[j] - w[i]) * (xs - x[i]) / (x[j] - x[i])
+        dev = np.abs(chord - ws) / ws
+        k = int(np.argmax(dev))
+        if dev[k] > rtol:
+            m = i + 1 + k
+            keep[m] = True
+            stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)
+
+
+def simplify_planform(beam: Beam, rtol: float = SIMPLIFY_RTOL,
+                      above: int = SIMPLIFY_ABOVE) -> tuple[Beam, dict | None]:
+    """(beam, info): ``beam`` itself and None when it has at most ``above`` stations; otherwise
+    the beam on a subset of its stations whose half-width is within ``rtol`` of the original's
+    local half-width everywhere (between stations too: both are piecewise linear on the original
+    stations), and ``info`` = stations before and after, the tolerance and the deviation reached
+    (relative and in metres)."""
+    if beam.x.size <= above:
+        return beam, None
+    idx = _simplify_indices(beam.x, beam.half_width, rtol)
+    w_new = np.interp(beam.x, beam.x[idx], beam.half_width[idx])
+    dev = np.abs(w_new - beam.half_width)
+    simple = Beam(x=beam.x[idx], half_width=beam.half_width[idx], thickness=beam.thickness,
+                  material=beam.material, name=beam.name)
+    return simple, {"stations_in": int(beam.x.size), "stations_out": int(idx.size),
+                    "rtol": rtol, "max_deviation": float(np.max(dev / beam.half_width)),
+                    "max_deviation_m": float(dev.max())}
 
 
 def load_beam(source) -> Beam:

@@ -127,10 +127,10 @@ def test_beams_outside_thin_beam_theory_are_refused(model, beam, field, needle):
 
 def test_limits_of_thin_theory_refuse_no_random_beam():
     from prbdm.truth import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,
-                             MAX_THICKNESS_RATIO, _check_beam)
+                             MAX_THICKNESS_RATIO, check_beam)
     for i in range(3000):
         b = random_beam(0, i)
-        _check_beam("beam", b)
+        check_beam(b, "beam")
         assert b.thickness / b.length <= 0.25 * MAX_THICKNESS_RATIO
         assert 2 * b.half_width.max() / b.length <= 0.1 * MAX_BEAM_WIDTH_RATIO
         # (the plate's separate width-ratio limit 1e4 does refuse a few random beams)

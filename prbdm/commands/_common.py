@@ -12,7 +12,92 @@ from ..errors import BadInput
 
 
 def add_beam_argument(parser):
+    from ..geometry import SIMPLIFY_ABOVE, SIMPLIFY_RTOL
+
     parser.add_argument("beam", metavar="BEAM", help="beam file (JSON, SPEC §1), or - for stdin")
+    parser.add_argument("--all-stations", action="store_true",
+                        help=f"use every station of BEAM (default: a planform of more than "
+                             f"{SIMPLIFY_ABOVE} stations is simplified to within "
+                             f"{SIMPLIFY_RTOL:g} of its local half-width, docs/commands.md)")
+
+
+def read_beam(args, command: str, model: str | None = None):
+    """The beam of ``args.beam``, checked and ready: (beam, info), the one way every command reads
+    a beam (so all refuse the same beams with the same message).
+
+    Checks :func:`prbdm.geometry.check_beam` (``model``: the truth model's own limits too, when
+    the command knows it), simplifies a planform of many stations (unless ``--all-stations``),
+    and writes the unit-mistake warnings to stderr. ``info`` is the JSON ``input`` block:
+    ``stations`` (as given), ``simplified`` (None, or stations before/after and the deviation)
+    and ``warnings``."""
+    from ..geometry import check_beam, load_beam, simplify_planform, unit_warnings
+
+    beam = load_beam(args.beam)
+    check_beam(beam, model)
+    info = {"stations": int(beam.x.size), "simplified": None, "warnings": unit_warnings(beam)}
+    if not getattr(args, "all_stations", False):
+        beam, info["simplified"] = simplify_planform(beam)
+    for w in info["warnings"]:
+        sys.stderr.write(f"prbdm {command}: warning: {w}\n")
+    s = info["simplified"]
+    if s is not None:
+        sys.stderr.write(f"prbdm {command}: note: planform simplified from {s['stations_in']} to "
+                         f"{s['stations_out']} stations (half-width within "
+                         f"{s['max_deviation']:.2g} of the local half-width, tolerance "
+                         f"{s['rtol']:g}; --all-stations keeps them all)\n")
+    return beam, info
+
+
+#: optional module -> the extra of pyproject.toml that installs it
+EXTRAS = {"pyarrow": "data", "pandas": "data", "dask": "data", "distributed": "data",
+          "matplotlib": "plot", "mujoco": "sim", "safetensors": "surrogate"}
+
+
+def missing_extra_message(module: str) -> str | None:
+    """The one-line message for a missing optional module, or None if it is no extra's."""
+    top = str(module).split(".")[0]
+    extra = EXTRAS.get(top)
+    if extra is None:
+        return None
+    return (f"this needs the optional package {top!r}, which is not installed; install it with: "
+            f'pip install "prbdm[{extra}]"')
+
+
+def require(*modules: str, purpose: str = "") -> None:
+    """BadInput with the exact ``pip install "prbdm[...]"`` line if an optional module is
+    missing: checked before any work, so nothing is computed and then lost."""
+    import importlib.util
+
+    for module in modules:
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            msg = missing_extra_message(module)
+            raise BadInput(f"{purpose + ': ' if purpose else ''}{msg}")
+
+
+def progress_bar(desc: str, delay: float = 2.0):
+    """(callback, close) for a long loop: a tqdm bar on stderr when stderr is a terminal, shown
+    only once the loop has run ``delay`` seconds; (None, no-op) otherwise (piped, or no tqdm)."""
+    def nothing():
+        pass
+
+    if not sys.stderr.isatty():
+        return None, nothing
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None, nothing
+    bar = tqdm(total=1, desc=desc, unit="it", file=sys.stderr, delay=delay, leave=False)
+
+    def update(i, total):
+        if bar.total != total:
+            bar.total = total
+        bar.update(i - bar.n)
+
+    return update, bar.close
 
 
 def float_list(text: str, name: str, *, minimum=None, positive=False) -> list[float]:

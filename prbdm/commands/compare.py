@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from ._common import add_beam_argument, positive_int, print_json, table
+from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
 from .predict import load_surrogate
 
 
@@ -66,10 +66,8 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    from ..geometry import load_beam
-
-    beam = load_beam(args.beam)
     sur = load_surrogate(args)
+    beam, info = read_beam(args, "compare", model=sur.truth)
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
 
@@ -94,12 +92,20 @@ def run(args) -> int:
     from ..fit import REFINE_CANDIDATES, fit_many, fit_prbdm, refine_starts
 
     poses = sur.poses.tolist()
-    fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
-                    starts=args.starts, seed=args.seed)
+    progress, close = progress_bar("prbdm compare: fit")
+    try:
+        fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
+                        starts=args.starts, seed=args.seed, progress=progress)
+    finally:
+        close()
+    progress, close = progress_bar("prbdm compare: refined")
     t0 = time.perf_counter()
-    starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
-    ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
-                   init_gamma=starts, max_iter=args.refine_iter)[0]
+    try:
+        starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
+        ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
+                       init_gamma=starts, max_iter=args.refine_iter, progress=progress)[0]
+    finally:
+        close()
     t_ref = time.perf_counter() - t0
 
     def method(gamma, k, omega, t):
@@ -124,6 +130,7 @@ def run(args) -> int:
         "refined": {**method(ref.gamma, ref.k, ref.omega, t_ref),
                     "max_iter": args.refine_iter},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        "input": info,
     }
     for w in out["warnings"]:
         sys.stderr.write(f"prbdm compare: warning: {w}\n")

@@ -8,7 +8,7 @@ import signal
 import sys
 
 from ..errors import BadInput
-from ._common import float_list, positive_int, print_json, table
+from ._common import float_list, positive_int, print_json, require, table
 
 
 def add_arguments(parser):
@@ -74,6 +74,9 @@ def _sigterm(signum, frame):
 
 
 def _generate(args) -> int:
+    require("pyarrow", purpose="prbdm dataset")
+    if args.scheduler is not None:
+        require("dask", "distributed", purpose="--scheduler")
     from .. import dataset
 
     if args.poses in ("paper", "linear"):
@@ -110,6 +113,7 @@ def _fmt(q, key, scale=1.0, digits=4):
 
 
 def _info(args) -> int:
+    require("pyarrow", purpose="prbdm dataset")
     from .. import dataset
 
     s = dataset.info(args.dir)

@@ -22,7 +22,7 @@ import sys
 import time
 
 from ..errors import BadInput
-from ._common import add_beam_argument, float_list, print_json, table
+from ._common import add_beam_argument, float_list, print_json, read_beam, table
 
 GAMMA_SUM_TOL = 1e-6
 
@@ -128,13 +128,11 @@ UNITS = {"omega": "rad/s", "freq_hz": "Hz", "poses": "rad", "joint_x": "m", "len
 
 
 def run(args) -> int:
-    from ..geometry import load_beam
-
     # validate the flags and the beam before paying for the torch import
     gamma = parse_gamma(args.gamma)
     n = len(gamma) - 1
     poses_spec, warnings = parse_poses(args.poses, n)
-    beam = load_beam(args.beam)
+    beam, info = read_beam(args, "eval")
     from .. import model  # noqa: F401  (torch start-up is not part of time_s)
 
     t0 = time.perf_counter()
@@ -145,6 +143,7 @@ def run(args) -> int:
     result = evaluate(beam, gamma, args.k, poses_spec, args.law)
     result["units"] = UNITS
     result["warnings"] = warnings
+    result["input"] = info
     result["time_s"] = time.perf_counter() - t0
     for w in warnings:
         sys.stderr.write(f"prbdm eval: warning: {w}\n")

@@ -23,7 +23,7 @@ import sys
 import time
 
 from ..errors import BadInput
-from ._common import add_beam_argument, positive_int, print_json, table
+from ._common import add_beam_argument, positive_int, print_json, read_beam, table
 
 FIT_OPTIONS = ("modes", "law", "poses", "starts", "seed")
 
@@ -111,7 +111,6 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..export import WRITERS, format_from_path, prbdm_from_fit
-    from ..geometry import load_beam
 
     t0 = time.perf_counter()
     to_stdout = args.output == "-"
@@ -127,7 +126,7 @@ def run(args) -> int:
         if not folder.is_dir():
             raise BadInput(f"-o/--output: folder {str(folder)!r} of {args.output!r} does not "
                            "exist (it is not created)")
-    beam = load_beam(args.beam)
+    beam, info = read_beam(args, "export")
     fit, warnings = fit_from_args(args, beam)
     desc = prbdm_from_fit(beam, fit, pose=args.pose, springref=args.springref,
                           damping=args.damping)
@@ -154,7 +153,8 @@ def run(args) -> int:
            "stiffness": [j["stiffness"] for j in h], "springref": [j["springref"] for j in h],
            "damping": [j["damping"] for j in h], "omega": desc["omega"],
            "freq_hz": desc["freq_hz"], "damping_ratio": desc["damping_ratio"],
-           "source": source, "warnings": warnings, "time_s": time.perf_counter() - t0}
+           "source": source, "warnings": warnings, "input": info,
+           "time_s": time.perf_counter() - t0}
     if args.json:
         print_json(out)
         return 0

@@ -14,7 +14,8 @@ import math
 import sys
 
 from ..errors import BadInput
-from ._common import add_beam_argument, positive_int, print_json, table
+from ._common import (add_beam_argument, positive_int, print_json, progress_bar, read_beam,
+                      require, table)
 
 TRUTHS = ("analytic", "beam", "plate")
 
@@ -47,15 +48,15 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from ..geometry import load_beam
     from .eval import parse_poses
 
-    beam = load_beam(args.beam)
+    beam, info = read_beam(args, "fit", model=None if args.truth == "auto" else args.truth)
     n = args.joints
     modes = args.modes or n
     poses, warnings = parse_poses(args.poses, n)
     if args.plot:
         _check_plot_path(args.plot)
+        require("matplotlib", purpose="--plot")
 
     from ..truth import bending_frequencies
     from ..truth.choice import choose_truth
@@ -76,8 +77,13 @@ def run(args) -> int:
     from ..fit import fit_prbdm
     from ..model import BeamTensors, links_from_gamma
 
-    result = fit_prbdm(beam, truth.omega, joints=n, modes=modes, law=args.law, poses=poses,
-                       starts=args.starts, seed=args.seed, objective=args.objective)
+    progress, close = progress_bar("prbdm fit")
+    try:
+        result = fit_prbdm(beam, truth.omega, joints=n, modes=modes, law=args.law, poses=poses,
+                           starts=args.starts, seed=args.seed, objective=args.objective,
+                           progress=progress)
+    finally:
+        close()
     bt = BeamTensors.from_beams(beam)
     with torch.no_grad():
         links = links_from_gamma(bt, torch.as_tensor(result.gamma)).physical(bt)
@@ -85,6 +91,7 @@ def run(args) -> int:
     out["truth"] = {"model": truth.model, "time_s": truth.time_s, "reason": reason}
     out["links"] = {key: v.tolist() for key, v in links.items()}
     out["warnings"] = warnings
+    out["input"] = info
     if args.plot:
         from ..plots import plot_fit
 

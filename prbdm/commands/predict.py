@@ -24,7 +24,7 @@ import math
 import sys
 
 from ..errors import BadInput
-from ._common import add_beam_argument, positive_int, print_json, table
+from ._common import add_beam_argument, positive_int, print_json, read_beam, table
 
 TRUTHS = ("beam", "plate")
 
@@ -93,13 +93,13 @@ def predict_one(sur, beam) -> dict:
 def run(args) -> int:
     import time
 
-    from ..geometry import load_beam
-
-    beam = load_beam(args.beam)
     sur = load_surrogate(args)
+    # refuses what `prbdm truth --model TRUTH` refuses, with the same message
+    beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
     out = predict_one(sur, beam)
     out["time_s"] = time.perf_counter() - t0
+    out["input"] = info
     for w in out["warnings"]:
         sys.stderr.write(f"prbdm predict: warning: {w}\n")
     if args.json:

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from ..errors import BadInput
-from ._common import positive_int
+from ._common import positive_int, require
 
 
 def _starts(text):
@@ -77,6 +77,9 @@ def _command(args) -> str:
 
 
 def run(args) -> int:
+    require("matplotlib", purpose="prbdm report (its plots)")
+    if args.data is not None:
+        require("pyarrow", purpose="--data")
     from .. import report
 
     out = Path(args.out)

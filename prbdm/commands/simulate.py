@@ -22,7 +22,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import BadInput
-from ._common import positive_int, print_json, table
+from ._common import positive_int, print_json, read_beam, require, table
 from .export import add_source_arguments, finite_float, fit_from_args
 
 
@@ -46,14 +46,14 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from ..geometry import load_beam
     from ..simulate import check_damping, plot_simulation, simulate
     from .fit import _check_plot_path
 
     check_damping(args.damping)           # before the fit: an overdamped beam has no period
     if args.plot:
         _check_plot_path(args.plot)
-    beam = load_beam(args.beam)
+        require("matplotlib", purpose="--plot")
+    beam, beam_info = read_beam(args, "simulate")
     fit, warnings = fit_from_args(args, beam)
     res = simulate(beam, fit, pose=args.pose, tip_deflection=args.tip_deflection,
                    tip_impulse=args.tip_impulse, damping=args.damping, duration=args.duration,
@@ -66,7 +66,7 @@ def run(args) -> int:
             raise BadInput(f"--plot: cannot write {args.plot!r} ({exc})") from None
     info = res.info
     if args.json:
-        print_json(res.to_dict())
+        print_json({**res.to_dict(), "input": beam_info})
         return 0
     for w in info["warnings"]:
         sys.stderr.write(f"warning: {w}\n")

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from ..errors import BadInput
-from ._common import add_beam_argument, positive_int, print_json, table
+from ._common import add_beam_argument, positive_int, print_json, read_beam, require, table
 
 
 def add_arguments(parser):
@@ -37,10 +37,9 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from ..geometry import load_beam
     from ..truth import bending_frequencies
 
-    beam = load_beam(args.beam)
+    beam, info = read_beam(args, "truth", model=args.model)
     options = {}
     if args.selection is not None:
         if args.model != "plate":
@@ -48,12 +47,13 @@ def run(args) -> int:
         options["selection"] = args.selection
     if args.plot is not None:
         _check_plot_path(args.plot)
+        require("matplotlib", purpose="--plot")
     res = bending_frequencies(beam, model=args.model, modes=args.modes,
                               all_modes=args.all_modes, elements=args.elements, **options)
     if args.plot is not None:
         plot_modes(beam, res, args.plot)
     if args.json:
-        print_json(res.to_dict(all_modes=args.all_modes))
+        print_json({**res.to_dict(all_modes=args.all_modes), "input": info})
         return 0
     print(_report(beam, res, args.all_modes))
     return 0

@@ -26,7 +26,11 @@ import time
 import numpy as np
 
 from ..errors import BadInput
-from ..geometry import Beam
+from ..geometry import Beam  # noqa: F401
+# the beam limits (thin theory, width ratio, the plate's own) have their one home in
+# prbdm.geometry, shared with every command; re-exported here under their old names
+from ..geometry import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,  # noqa: F401
+                        MAX_PLATE_WIDTH_RATIO, MAX_THICKNESS_RATIO, MAX_WIDTH_RATIO, check_beam)
 from .result import TruthResult, check_frequencies
 
 __all__ = ["bending_frequencies", "TruthResult", "MODELS", "MAX_MODES"]
@@ -34,23 +38,6 @@ __all__ = ["bending_frequencies", "TruthResult", "MODELS", "MAX_MODES"]
 MODELS = ("analytic", "beam", "plate")
 #: the most modes each model may be asked for
 MAX_MODES = {"analytic": 200, "beam": 100, "plate": 30}
-#: planforms whose width varies more than this (max/min) are refused as degenerate
-MAX_WIDTH_RATIO = 1e6
-#: the plate model is verified up to this width ratio (a needle tapering 0.1 m -> 1e-5 m stays
-#: within 1.3e-4 of its slender-beam limit); at 1e5 its first frequency came out 3.5x (mapped
-#: mesh) or 2.3x (Delaunay) too high, so it is refused beyond instead of answering wrongly
-MAX_PLATE_WIDTH_RATIO = 1e4
-#: thin theory only (Euler-Bernoulli beam, Kirchhoff plate: no shear, no rotary inertia): a beam
-#: thicker than this fraction of its length is refused, all models. The paper's random generator
-#: (``prbdm.geometry.random_beam``) stays at or below 0.05 (t <= 50 mm, L = 1 m)
-MAX_THICKNESS_RATIO = 0.2
-#: ``beam`` and ``analytic``: largest full width over length, ``2 max(half_width) / L``. Beyond it
-#: the panel is a plate clamped along its long edge, not a beam (the same bound as the plate
-#: model's half-width <= 5 L); random beams reach at most 1 (half-width <= 0.5 m, L = 1 m)
-MAX_BEAM_WIDTH_RATIO = 10.0
-#: ``plate``: largest thickness over full width, ``t / (2 max(half_width))``; a panel thicker
-#: than half its widest chord is no thin plate. Random beams: at most 0.11 in 20 000 (seed 0)
-MAX_PLATE_THICKNESS_RATIO = 0.5
 
 
 def _check_modes(model, modes):
@@ -61,42 +48,6 @@ def _check_modes(model, modes):
         raise BadInput(f"modes: must be an integer in [1, {top}] for model {model!r}, "
                        f"got {modes!r}")
     return int(modes)
-
-
-def _check_beam(model, beam):
-    if not isinstance(beam, Beam):
-        raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
-    w = beam.half_width
-    ratio = float(w.max() / w.min())
-    if not math.isfinite(ratio) or ratio > MAX_WIDTH_RATIO:
-        raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model {model!r} "
-                       f"accepts at most {MAX_WIDTH_RATIO:.0e}, beyond which the planform "
-                       "degenerates into disconnected pieces")
-    L = beam.length
-    t_ratio = beam.thickness / L
-    if not t_ratio <= MAX_THICKNESS_RATIO:
-        raise BadInput(f"thickness: must be at most {MAX_THICKNESS_RATIO:g} L for thin-beam and "
-                       f"thin-plate theory; this beam is {t_ratio:.3g} L thick "
-                       f"(t = {beam.thickness:.6g} m, L = {L:.6g} m)")
-    if model in ("beam", "analytic"):
-        b_ratio = float(2 * w.max() / L)
-        if not b_ratio <= MAX_BEAM_WIDTH_RATIO:
-            raise BadInput(f"half_width: model {model!r} needs a full width 2 max(half_width) of "
-                           f"at most {MAX_BEAM_WIDTH_RATIO:g} L (beyond it the panel is a plate, "
-                           f"not a beam); this planform is {b_ratio:.3g} L wide (L = {L:.6g} m)")
-    if model == "plate" and ratio > MAX_PLATE_WIDTH_RATIO:
-        raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model 'plate' "
-                       f"accepts at most {MAX_PLATE_WIDTH_RATIO:.0e} (use --model beam)")
-    if model == "plate":
-        aspect = float(w.max() / L)
-        if aspect > 5.0:
-            raise BadInput(f"half_width: the plate model needs a half-width of at most 5 L; "
-                           f"this planform is {aspect:.3g} L wide (L = {L:.6g} m)")
-        tb = float(beam.thickness / (2 * w.max()))
-        if not tb <= MAX_PLATE_THICKNESS_RATIO:
-            raise BadInput(f"thickness: the plate model needs a thickness of at most "
-                           f"{MAX_PLATE_THICKNESS_RATIO:g} x the full width 2 max(half_width) for "
-                           f"thin-plate theory; this panel's is {tb:.3g} x (use --model beam)")
 
 
 def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
@@ -130,7 +81,7 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     if model not in MODELS:
         raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
     modes = _check_modes(model, modes)
-    _check_beam(model, beam)
+    check_beam(beam, model)
     if elements is not None:
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) \
                 or elements < 2:
