@@ -203,6 +203,8 @@ def check_checkpoint(tensors: dict, metadata: dict) -> None:
                     positive=key.endswith("std"))
         lo = _vector(metadata["features"], "min", F, "features.min")
         hi = _vector(metadata["features"], "max", F, "features.max")
+    except BadInput:
+        raise
     except (KeyError, TypeError, ValueError) as exc:
         raise BadInput(f"incomplete surrogate normalisation ({_one_line(exc)})") from None
     if np.any(lo > hi):

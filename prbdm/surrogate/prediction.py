@@ -229,7 +229,9 @@ class Surrogate:
         lo, hi = self.f_min - slack, self.f_max + slack
         bad = (feats < lo) | (feats > hi) | ~np.isfinite(feats)
         texts = []
-        for i, j in zip(*np.nonzero(bad)):
+        # a feature fixed in training first: extrapolating it is the larger leap
+        pairs = sorted(zip(*np.nonzero(bad)), key=lambda ij: (not self.fixed[ij[1]], ij))
+        for i, j in pairs:
             if len(texts) == 20:
                 texts.append(f"... {int(bad.sum()) - 20} more out-of-range feature values")
                 break
