@@ -712,6 +712,7 @@ def test_physical_problems_flag_broken_predictions(tmp_path):
                                                    dict(tensors, **{last: b}), meta))
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)      # no numpy overflow warnings
+        warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
         with pytest.warns(sg.ImplausiblePredictionWarning, match="implausible prediction"):
             p = broken.predict(beams)
     assert p.implausible.all()
