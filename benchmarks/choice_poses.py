@@ -76,7 +76,7 @@ def main():
         B, H, n1 = cand.shape
         mu = sg.prbdm_eigenvalues(np.repeat(batch.x, H, 0), np.repeat(batch.w, H, 0),
                                   cand.reshape(B * H, n1), sur.poses)
-        best = sg._candidate_losses(mu.reshape(B, H, m, -1)[..., :r], lam_t)[1].min(1)
+        best = sg.candidate_losses(mu.reshape(B, H, m, -1)[..., :r], lam_t)[1].min(1)
         label = spec_c if len(spec_c) <= 48 else "..." + spec_c[-45:]
         for name, poses, loss in rows:
             same = np.mean(picks[name] == picks["all"])

@@ -77,7 +77,7 @@ What keeps the conditioning in check (each verified in the code named):
 - **Width-ratio limits** (`prbdm/truth/__init__.py`: 1e6 for the truth; `prbdm/geometry.py`
   `MAX_PRBDM_WIDTH_RATIO`: 1e12 for the PRBDM and the network): beyond them a `BadInput` naming
   `half_width`, rather than a failed eigen-solve.
-- **gamma bounds by construction** (`prbdm/fit.py` `gamma_from_z`, `prbdm/surrogate.py`
+- **gamma bounds by construction** (`prbdm/fit.py` `gamma_from_z`, `prbdm/surrogate/decode.py`
   softmax): every iterate and every prediction is on the bounded simplex; `init_gamma` starts on a
   bound are moved to `|z_j| >= 0.02` (`INIT_Z_FLOOR`), because at `z_j = 0` the gradient in that
   direction vanishes and the link would stay frozen on its bound.

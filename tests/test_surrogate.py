@@ -8,6 +8,7 @@ The tiny data set (12 beams, 2 joints) and its checkpoint are made once per test
 from __future__ import annotations
 
 import atexit
+import copy
 import functools
 import json
 import shutil
@@ -24,6 +25,9 @@ import torch
 from prbdm import dataset as D
 from prbdm import model
 from prbdm import surrogate as sg
+from prbdm.surrogate import numpy_model as nm
+from prbdm.surrogate import prediction as sp
+from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 
@@ -100,9 +104,9 @@ def test_outputs_valid_by_construction():
                 for h in range(H):
                     mu_h = sg.prbdm_eigenvalues(bb.x, bb.w, d["gamma_all"][:, h],
                                                 poses[sg.SELECT_POSES])
-                    kp = sg._project_k(mu_h[..., :4], lam_p)
+                    kp = sg.project_k(mu_h[..., :4], lam_p)
                     mu_s = sg.prbdm_eigenvalues(bb.x, bb.w, gamma, poses[sg.SELECT_POSES])
-                    ks = sg._project_k(mu_s[..., :4], lam_p)
+                    ks = sg.project_k(mu_s[..., :4], lam_p)
                     loss_h = sg.loss_percent_np(mu_h * kp[..., None], lam_p, 4)
                     loss_s = sg.loss_percent_np(mu_s * ks[..., None], lam_p, 4)
                     assert np.all(loss_s <= loss_h + 1e-12)
@@ -130,18 +134,18 @@ def test_numpy_prbdm_matches_model():
                                    (s_t * (bt.E * bt.thickness ** 3)[:, None]).numpy(), rtol=1e-9)
     # the straight-beam fast path of the rigid-finite-element features
     n = 11
-    g = np.broadcast_to(sg._uniform_gamma(n), (len(beams), n + 1))
+    g = np.broadcast_to(sg.uniform_gamma(n), (len(beams), n + 1))
     ref = model.eigenvalues_unit_k(bt, torch.as_tensor(np.ascontiguousarray(g)),
                                    torch.zeros(1, n)).numpy()[:, 0, :5]
     np.testing.assert_allclose(np.exp(2 * sg.rfe_log_omega(bb, 12, 5)), ref, rtol=1e-9)
 
     # the straight M from its semiseparable generators, and V^T M V without forming M
-    links = sg._links(bb.x, bb.w, np.ascontiguousarray(g))
-    M0 = sg._straight_mass_matrix(links)
-    np.testing.assert_allclose(M0, sg._mass_matrix(links, np.zeros((1, n)))[:, 0], rtol=1e-12,
+    links = nm.links_from_gamma(bb.x, bb.w, np.ascontiguousarray(g))
+    M0 = nm.straight_mass_matrix(links)
+    np.testing.assert_allclose(M0, nm.mass_matrix(links, np.zeros((1, n)))[:, 0], rtol=1e-12,
                                atol=1e-15)
     V = rng.standard_normal((len(beams), n, 3))
-    np.testing.assert_allclose(sg._straight_projected_mass(links, V),
+    np.testing.assert_allclose(nm.straight_projected_mass(links, V),
                                np.swapaxes(V, -1, -2) @ M0 @ V, rtol=1e-10, atol=1e-14)
 
 
@@ -266,11 +270,11 @@ def test_checkpoint_round_trip(tmp_path):
     table = D.read_table(tiny() / "data", status="ok").to_pandas()
     assert sg.dataset_hash(table) == ds["sha256"]
     # weights -> torch network -> save -> load: same predictions, and the torch forward agrees
-    net = sg.SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
+    net = SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
                           width=meta["network"]["width"], depth=meta["network"]["depth"],
                           k_mode=src.k_mode, hypotheses=src.hypotheses)
     assert src.hypotheses > 1
-    tensors, _ = sg._read_safetensors(tiny_checkpoint())
+    tensors, _ = sg.read_checkpoint(tiny_checkpoint())
     net.load_weights(tensors)
     path = sg.save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
         k: v for k, v in meta.items() if k not in ("format", "format_version")})
@@ -374,7 +378,7 @@ def test_training_log_and_comparison_recorded():
 
 def test_threaded_prediction_equals_one_thread(monkeypatch):
     sur = sg.load_checkpoint(tiny_checkpoint())
-    monkeypatch.setattr(sg, "PIECE", 7)          # several pieces from a small batch
+    monkeypatch.setattr(sp, "PIECE", 7)          # several pieces from a small batch
     beams = sg.BeamBatch.from_beams([random_beam(5, i) for i in range(30)])
     one = sur.predict(beams, warn=False, threads=1)
     for threads in (2, 3):
@@ -383,7 +387,7 @@ def test_threaded_prediction_equals_one_thread(monkeypatch):
             np.testing.assert_array_equal(getattr(many, key), getattr(one, key))
     # one piece: the same numbers to the float32 MLP's round-off, which depends on the shape
     # of its matrix products (hence pieces that do not depend on the thread count)
-    monkeypatch.setattr(sg, "PIECE", 10 ** 6)
+    monkeypatch.setattr(sp, "PIECE", 10 ** 6)
     whole = sur.predict(beams, warn=False, threads=2)
     np.testing.assert_allclose(whole.k, one.k, rtol=1e-5)
     np.testing.assert_allclose(whole.omega_truth, one.omega_truth, rtol=1e-6)
@@ -406,8 +410,7 @@ def test_gauss_select_poses():
 def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path):
     """A checkpoint written before ensembles (no members, no select_poses) loads as one network
     that compares candidates on the first and last poses, as it was trained and measured."""
-    tensors, meta = sg._read_safetensors(tiny_checkpoint())
-    meta = json.loads(meta["prbdm"])
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
     for key in ("members", "select_poses"):
         meta["network"].pop(key)
     old = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "old.safetensors", tensors, {
@@ -427,11 +430,11 @@ def test_ensemble_checkpoint(tmp_path):
     src = sg.load_checkpoint(tiny_checkpoint())
     meta = dict(src.metadata)
     net_meta = meta["network"]
-    tensors, _ = sg._read_safetensors(tiny_checkpoint())
+    tensors, _ = sg.read_checkpoint(tiny_checkpoint())
     torch.manual_seed(0)
     members = []
     for j in range(2):
-        net = sg.SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
+        net = SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
                               width=net_meta["width"], depth=net_meta["depth"],
                               k_mode=src.k_mode, hypotheses=src.member_hypotheses)
         net.load_weights(tensors)
@@ -440,7 +443,7 @@ def test_ensemble_checkpoint(tmp_path):
                 for prm in net.parameters():
                     prm.add_(0.05 * torch.randn_like(prm))
         members.append(net)
-    ens = sg.SurrogateEnsemble(members)
+    ens = SurrogateEnsemble(members)
 
     def save(name, weights, n_members):
         meta["network"] = {**net_meta, "members": n_members}
@@ -464,7 +467,7 @@ def test_ensemble_checkpoint(tmp_path):
     H, P = cand.shape[1], len(loaded.select_poses)
     mu = sg.prbdm_eigenvalues(np.repeat(bb.x, H, 0), np.repeat(bb.w, H, 0),
                               cand.reshape(-1, 3), src.poses[loaded.select_poses])
-    _, loss = sg._candidate_losses(mu.reshape(len(beams), H, P, 2)[..., :src.modes], lam_p)
+    _, loss = sg.candidate_losses(mu.reshape(len(beams), H, P, 2)[..., :src.modes], lam_p)
     np.testing.assert_array_equal(p.extra["selected"], loss.argmin(1))
     assert (p.extra["selected"] >= src.member_hypotheses).any()   # both members contribute
     # the torch ensemble (used in training) gives the same
@@ -519,8 +522,7 @@ def test_with_members_uses_the_first_members(tmp_path):
     """``with_members(k)``: the first k members of an ensemble, as their own checkpoint would
     predict; bad counts are refused."""
     src = sg.load_checkpoint(tiny_checkpoint())
-    tensors, meta = sg._read_safetensors(tiny_checkpoint())
-    meta = json.loads(meta["prbdm"])
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
     meta.pop("format"), meta.pop("format_version")
     ens = {**{f"members.0.{k}": v for k, v in tensors.items()},
            **{f"members.1.{k}": v * 1.01 for k, v in tensors.items()}}
@@ -535,3 +537,182 @@ def test_with_members_uses_the_first_members(tmp_path):
     for bad in (0, 3, 1.0, True):
         with pytest.raises(BadInput, match="members"):
             two.with_members(bad)
+
+
+# ------------------------------------------------------------------------ checks on load
+def _raw_save(path, tensors, meta):
+    """Write a checkpoint as it is, bypassing save_checkpoint's own checks and hash (a file
+    damaged or edited after it was saved)."""
+    from safetensors.numpy import save_file
+
+    save_file({k: np.ascontiguousarray(v) for k, v in tensors.items()}, str(path),
+              metadata={"prbdm": json.dumps(meta)})
+    return path
+
+
+def test_weights_sha256_written_and_checked(tmp_path):
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    assert meta["weights_sha256"] == sg.weights_sha256(tensors)
+    # the hash does not depend on the order or the layout of the file
+    assert sg.weights_sha256(dict(reversed(list(tensors.items())))) == meta["weights_sha256"]
+    edited = {k: v.copy() for k, v in tensors.items()}
+    name = sorted(edited)[0]
+    edited[name].flat[0] += np.float32(1e-3)
+    assert sg.weights_sha256(edited) != meta["weights_sha256"]
+    path = _raw_save(tmp_path / "edited.safetensors", edited, meta)
+    with pytest.raises(BadInput, match=r"edited\.safetensors.*weights_sha256"):
+        sg.load_checkpoint(path)
+    # without a recorded hash (an older checkpoint) the same file loads
+    old = {k: v for k, v in meta.items() if k != "weights_sha256"}
+    sg.load_checkpoint(_raw_save(tmp_path / "old.safetensors", edited, old))
+
+
+def _refused(tmp_path, tensors, meta, *words):
+    path = _raw_save(tmp_path / "bad.safetensors", tensors,
+                     {k: v for k, v in meta.items() if k != "weights_sha256"})
+    with pytest.raises(BadInput) as err:
+        sg.load_checkpoint(path)
+    text = str(err.value)
+    assert "bad.safetensors" in text and "\n" not in text
+    for w in words:
+        assert w in text, (w, text)
+    return text
+
+
+def test_checkpoint_checks_on_load(tmp_path):
+    """Non-finite weights, wrong shapes, weights that the metadata does not describe and
+    inconsistent metadata are refused, naming the file and the weight or field."""
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    first = sorted(k for k in tensors if k.endswith(".weight"))[0]
+    for bad in (np.nan, np.inf):
+        t = {k: v.copy() for k, v in tensors.items()}
+        t[first].flat[3] = bad
+        _refused(tmp_path, t, meta, first, "non-finite")
+    t = dict(tensors, **{first: tensors[first][:, :-1].copy()})
+    _refused(tmp_path, t, meta, first.rsplit(".", 1)[0], "shape")
+    t = dict(tensors, **{first: tensors[first].astype(np.int32)})
+    _refused(tmp_path, t, meta, "dtype")
+    t = {k: v for k, v in tensors.items() if not k.endswith(".bias")}
+    _refused(tmp_path, t, meta, "missing")
+    _refused(tmp_path, dict(tensors, extra=np.zeros(2, np.float32)), meta, "unexpected", "extra")
+    # metadata that does not match the weights or itself
+    m = json.loads(json.dumps(meta))
+    m["joints"] = 3
+    _refused(tmp_path, tensors, m, "poses")
+    m = json.loads(json.dumps(meta))
+    m["normalisation"]["feature_std"][0] = 0.0
+    _refused(tmp_path, tensors, m, "feature_std")
+    m = json.loads(json.dumps(meta))
+    m["normalisation"]["freq_mean"] = m["normalisation"]["freq_mean"][:-1]
+    _refused(tmp_path, tensors, m, "normalisation.freq_std has shape")
+    m = json.loads(json.dumps(meta))
+    m["features"]["names"] = m["features"]["names"][:-1]
+    _refused(tmp_path, tensors, m, "feature names")
+    m = json.loads(json.dumps(meta))
+    m["network"]["members"] = 2
+    _refused(tmp_path, tensors, m, "members.0.layers")
+    m = json.loads(json.dumps(meta))
+    del m["normalisation"]
+    _refused(tmp_path, tensors, m, "incomplete")
+    # and save_checkpoint writes no file with non-finite weights
+    t = {k: v.copy() for k, v in tensors.items()}
+    t[first].flat[0] = np.nan
+    with pytest.raises(BadInput, match="not finite"):
+        sg.save_checkpoint(tmp_path / "nan.safetensors", t, meta)
+    assert not list(tmp_path.glob("nan*")) and not list(tmp_path.glob(".nan*"))
+
+
+@pytest.mark.parametrize("joints", [3, 4, 5])
+def test_shipped_checkpoints_are_hashed_and_clean(joints):
+    """Every shipped checkpoint records the hash of its weights (checked on load), its readable
+    copy equals the header, and neither holds a machine path."""
+    path = sg.PACKAGE_CHECKPOINTS / f"beam-n{joints}.safetensors"
+    tensors, meta = sg.read_checkpoint(path)
+    assert meta["weights_sha256"] == sg.weights_sha256(tensors)
+    assert json.loads(path.with_suffix(".json").read_text()) == meta
+    assert "/work/" not in json.dumps(meta) and "/home/" not in json.dumps(meta)
+
+
+def plate_checkpoint(tmp_path, nu=0.28) -> Path:
+    """The tiny network made into a plate-truth checkpoint trained on one Poisson's ratio: the
+    plate features (log_aspect, nu) added with zero weights, nu's training range the single value
+    ``nu`` (as a data set of one material gives)."""
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    meta = json.loads(json.dumps(meta))
+    spec = dict(meta["features"]["spec"], truth="plate")
+    meta["truth"], meta["features"]["spec"] = "plate", spec
+    meta["features"]["names"] = sg.feature_names(sg.FeatureSpec(**spec))
+    meta["features"]["min"] += [-6.0, nu]
+    meta["features"]["max"] += [2.0, nu]
+    meta["normalisation"]["feature_mean"] += [-2.0, nu]
+    meta["normalisation"]["feature_std"] += [1.0, 1e-6]    # training's floor for a constant
+    first = "layers.0.weight"
+    W = tensors[first]
+    tensors = dict(tensors, **{first: np.concatenate([W, np.zeros((W.shape[0], 2), W.dtype)], 1)})
+    meta = {k: v for k, v in meta.items() if k not in ("format", "format_version")}
+    return sg.save_checkpoint(tmp_path / "plate-n2.safetensors", tensors, meta)
+
+
+def _with_nu(beam, nu):
+    m = beam.material
+    return Beam(x=beam.x, half_width=beam.half_width, thickness=beam.thickness,
+                material=Material(E=m.E, rho=m.rho, nu=nu))
+
+
+def test_extrapolation_of_a_fixed_feature_is_refused(tmp_path):
+    sur = sg.load_checkpoint(plate_checkpoint(tmp_path))
+    assert [sur.names[j] for j in np.flatnonzero(sur.fixed)] == ["nu"]
+    beam = random_beam(5, 1)
+    ok = sur.predict([_with_nu(beam, 0.28)], warn=False)
+    assert not ok.ood[0, -1] and not ok.implausible.any()
+    alu = [_with_nu(beam, 0.33)]
+    with pytest.raises(BadInput, match=r"feature nu = 0\.33 .*\[0\.28, 0\.28\].*extrapolat"):
+        sur.predict(alu, warn=False)
+    with pytest.raises(BadInput, match="nu = 0.33"):
+        sg.predict(alu, checkpoint=sur, warn=False)
+    with pytest.raises(BadInput, match="nu = 0.33"):
+        sur.predict(sur.features(alu), warn=False)          # from features too
+    with pytest.warns(sg.OutOfDistributionWarning, match="nu = 0.33"):
+        forced = sur.predict(alu, allow_extrapolation=True)
+    assert forced.ood[0, -1] and np.all(np.isfinite(forced.omega))
+    # a feature that varied in training keeps its margin and only warns
+    assert not sur.fixed[:-1].any()
+
+
+def test_physical_problems_flag_broken_predictions(tmp_path):
+    """A prediction outside physical ranges is flagged and explained, never passed on silently;
+    a network whose frequency head is far off (a damaged bias) is caught."""
+    sur = sg.load_checkpoint(tiny_checkpoint())
+    beams = [random_beam(5, i) for i in range(6)]
+    good = sur.predict(beams, warn=False)
+    assert not good.implausible.any() and good.problems == []
+    rfe0 = 2 * sur.feature_spec.cells
+    rfe = sur.features(beams)[:, rfe0:rfe0 + good.log_omega_hat.shape[1]]
+    bb = sg.BeamBatch.from_beams(beams)
+    for field_, change, word in (("k", lambda v: v * 1e142, "k = "),
+                                 ("k", lambda v: v * np.nan, "k = "),
+                                 ("gamma", lambda v: v * np.nan, "gamma"),
+                                 ("log_omega_hat", lambda v: v + 3.0, "truth frequencies"),
+                                 ("log_omega_hat", lambda v: v[[1, 0, *range(2, len(v))]], "ascending"),
+                                 ("omega", lambda v: v * 1e-3, "PRBDM's mode 1")):
+        pred = copy.deepcopy(good)
+        value = getattr(pred, field_).copy()
+        value[2] = change(value[2])
+        setattr(pred, field_, value)
+        bad, texts = sg.physical_problems(pred, rfe, bb)
+        assert bad.tolist() == [False, False, True, False, False, False], field_
+        assert texts[0].startswith("beam 2: implausible prediction: ") and word in texts[0]
+    # a damaged checkpoint (hash recomputed, so it loads): the frequency head's bias far off
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    last = max((k for k in tensors if k.endswith(".bias")), key=lambda k: int(k.split(".")[-2]))
+    b = tensors[last].copy()
+    b[-1] += 1e4
+    meta = {k: v for k, v in meta.items() if k not in ("format", "format_version")}
+    broken = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "broken.safetensors",
+                                                   dict(tensors, **{last: b}), meta))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)      # no numpy overflow warnings
+        warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
+        with pytest.warns(sg.ImplausiblePredictionWarning, match="implausible prediction"):
+            p = broken.predict(beams)
+    assert p.implausible.all()

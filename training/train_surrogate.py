@@ -131,6 +131,7 @@ import prbdm  # noqa: E402
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import model  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
 
 torch.set_num_threads(threads)
 out_path = Path(out)
@@ -192,7 +193,7 @@ if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
     y_logk = np.log(np.stack(table["k"].to_numpy()))
 else:
-    y_gamma = np.broadcast_to(sg._uniform_gamma(n), (N, n + 1)).copy()
+    y_gamma = np.broadcast_to(sg.uniform_gamma(n), (N, n + 1)).copy()
     y_logk = np.zeros((N, m))
 y_corr = log_omega_hat - feats[:, rfe0:rfe0 + R]
 sha = sg.dataset_hash(table)
@@ -267,7 +268,7 @@ def vp_loss(rows, d):
         mu_all = model.eigenvalues_unit_k(beam_rows(rows), d["gamma_all"].double(), poses, "beam")
     else:
         mu_all = d["mu_all"]
-    _, loss = sg._candidate_losses(mu_all[..., :r], lam_hat[rows])
+    _, loss = sg.candidate_losses(mu_all[..., :r], lam_hat[rows])
     return wta(loss)
 
 
@@ -294,7 +295,7 @@ def evaluate(net, rows):
 
 
 # ------------------------------------------------------------------------------- 3. training
-Net = sg.SurrogateNet
+Net = SurrogateNet
 
 
 def make_net(member=0):
@@ -316,7 +317,7 @@ def make_net(member=0):
         # (the two families of fitted optima), then random segmentations
         long_root = torch.full((n + 1,), 0.3 / n)
         long_root[0] = 0.7
-        starts = [g / g.sum(), torch.as_tensor(sg._uniform_gamma(n), dtype=torch.float32),
+        starts = [g / g.sum(), torch.as_tensor(sg.uniform_gamma(n), dtype=torch.float32),
                   long_root]
         gen0 = torch.Generator().manual_seed(seed + member + 1)
         while len(starts) < hypotheses:
@@ -410,7 +411,7 @@ def train_ensemble(mode):
     with multiprocessing.get_context("fork").Pool(members) as pool:
         done = pool.map(_train_member, [(mode, j) for j in range(members)])
     nets_ = [make_net().load_weights(w) for w, _ in done]
-    ens = sg.SurrogateEnsemble(nets_)
+    ens = SurrogateEnsemble(nets_)
     summary = {"mode": mode, "members": [s for _, s in done],
                "time_s": max(s["time_s"] for _, s in done),
                "val": evaluate(ens, split["val"]), "train": evaluate(ens, split["train"])}

@@ -50,7 +50,7 @@ def read_beam(args, command: str, model: str | None = None):
 
 #: optional module -> the extra of pyproject.toml that installs it
 EXTRAS = {"pyarrow": "data", "pandas": "data", "dask": "data", "distributed": "data",
-          "matplotlib": "plot", "mujoco": "sim", "safetensors": "surrogate"}
+          "matplotlib": "plot", "mujoco": "sim"}   # safetensors is a core dependency
 
 
 def missing_extra_message(module: str) -> str | None:

@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
-from .predict import load_surrogate
+from .predict import add_extrapolation_argument, load_surrogate
 
 
 def add_arguments(parser):
@@ -49,6 +49,7 @@ def add_arguments(parser):
     parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=15,
                         help="iterations of the refinement from the network's best candidates and "
                              "the fit's fixed starts (default 15)")
+    add_extrapolation_argument(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
@@ -78,8 +79,9 @@ def run(args) -> int:
 
     with _w.catch_warnings():
         _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
+        _w.simplefilter("ignore", surrogate.ImplausiblePredictionWarning)
         t0 = time.perf_counter()
-        pred = sur.predict(beam, frequencies=True)
+        pred = sur.predict(beam, frequencies=True, allow_extrapolation=args.allow_extrapolation)
         t_net = time.perf_counter() - t0
 
     import torch
@@ -129,7 +131,8 @@ def run(args) -> int:
         "fit": {**method(fit.gamma, fit.k, fit.omega, fit.time_s), "starts": fit.n_starts},
         "refined": {**method(ref.gamma, ref.k, ref.omega, t_ref),
                     "max_iter": args.refine_iter},
-        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        # an implausible network prediction is shown beside the others here, and said so
+        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings + pred.problems],
         "input": info,
     }
     for w in out["warnings"]:

@@ -6,8 +6,14 @@ then gives the frequencies per pose. Neither torch nor scikit-fem is imported: t
 PRBDM run in NumPy, so the command answers in well under a second.
 
 The checkpoint is ``--checkpoint PATH``, or the default one for (``--joints``, ``--truth``)
-(:func:`prbdm.surrogate.default_checkpoint`). A beam whose features fall outside the range seen in
-training gets a warning naming the feature (stderr; also in ``warnings`` of the JSON).
+(:func:`prbdm.surrogate.default_checkpoint`), checked on load (exit 2 naming the file if it is
+corrupt or inconsistent). A beam whose features fall outside the range seen in training gets a
+warning naming the feature (stderr; also in ``warnings`` of the JSON); a feature that did not vary
+in training at all (e.g. nu for a plate network trained on one material) is refused (exit 2)
+unless ``--allow-extrapolation``. A prediction that is non-finite or outside physical ranges
+(:func:`prbdm.surrogate.physical_problems`) is an error: exit 2 when the beam lies outside the
+training range, exit 1 otherwise (the checkpoint's fault), one line on stderr, never a number.
+Any other failure is one line and exit 1 too, with or without ``--json``.
 
 JSON (``--json``): ``gamma``, ``k`` (one per pose), ``law``, ``poses``, ``omega`` and ``freq_hz``
 (the PRBDM's frequencies per pose), ``omega_truth_predicted`` and ``freq_hz_truth_predicted`` (the
@@ -39,7 +45,18 @@ def add_arguments(parser):
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (.safetensors); default: the packaged one for "
                              "--joints and --truth")
+    add_extrapolation_argument(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_extrapolation_argument(parser):
+    parser.add_argument("--allow-extrapolation", action="store_true",
+                        help="predict even for a beam outside the range of a feature that did "
+                             "not vary in training (a warning is printed); refused by default")
+
+
+class PredictionError(RuntimeError):
+    """The checkpoint gave an implausible prediction for a beam inside its training range."""
 
 
 def load_surrogate(args):
@@ -60,15 +77,39 @@ def load_surrogate(args):
     return sur
 
 
-def predict_one(sur, beam) -> dict:
-    """Everything the command prints, as a JSON-ready dict."""
+def checked_prediction(sur, beam, allow_extrapolation: bool = False):
+    """The surrogate's prediction for one beam, or an error: BadInput (exit 2) for an
+    extrapolation the checkpoint cannot make or an implausible prediction for a beam outside the
+    training range, PredictionError (exit 1) for an implausible one inside it."""
     import warnings as _w
 
     from .. import surrogate
 
     with _w.catch_warnings():
         _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
-        pred = sur.predict(beam, frequencies=True)
+        _w.simplefilter("ignore", surrogate.ImplausiblePredictionWarning)
+        pred = sur.predict(beam, frequencies=True, allow_extrapolation=allow_extrapolation)
+    if pred.implausible[0]:
+        problem = pred.problems[0].replace("implausible prediction: ", "")
+        if pred.ood[0].any():
+            raise BadInput(f"checkpoint {sur.name} gave an implausible prediction for this beam, "
+                           f"which lies outside its training range: {problem}; "
+                           f"{pred.warnings[0].replace('beam 0: ', '')}; use `prbdm fit`")
+        raise PredictionError(f"checkpoint {sur.name} gave an implausible prediction for this "
+                              f"beam, inside its training range: {problem}; the network is wrong "
+                              "here (or the checkpoint is damaged): use `prbdm fit` for this beam")
+    if allow_extrapolation and pred.ood[0].any():
+        pred.warnings.append("--allow-extrapolation: the prediction extrapolates beyond the "
+                             f"training range of checkpoint {sur.name}; check it with "
+                             "`prbdm compare`")
+    return pred
+
+
+def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
+    """Everything the command prints, as a JSON-ready dict."""
+    from .. import surrogate
+
+    pred = checked_prediction(sur, beam, allow_extrapolation)
     batch = surrogate.BeamBatch.from_beams(beam)
     links = surrogate.link_table(batch, pred.gamma, pred.k)
     omega = pred.omega[0]
@@ -91,13 +132,28 @@ def predict_one(sur, beam) -> dict:
 
 
 def run(args) -> int:
+    """The command, with every failure turned into one line: BadInput goes on to the CLI (exit
+    2); anything else, even with --json, is one line here and exit 1, never a traceback."""
+    try:
+        return predict_command(args)
+    except (BadInput, KeyboardInterrupt, BrokenPipeError):
+        raise
+    except Exception as exc:            # noqa: BLE001 - the command boundary
+        text = " ".join(str(exc).split())[:500]
+        kind = ("" if isinstance(exc, PredictionError)
+                else f"internal error ({type(exc).__name__}): ")
+        sys.stderr.write(f"prbdm predict: error: {kind}{text}\n")
+        return 1
+
+
+def predict_command(args) -> int:
     import time
 
     sur = load_surrogate(args)
     # refuses what `prbdm truth --model TRUTH` refuses, with the same message
     beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
-    out = predict_one(sur, beam)
+    out = predict_one(sur, beam, args.allow_extrapolation)
     out["time_s"] = time.perf_counter() - t0
     out["input"] = info
     for w in out["warnings"]:
