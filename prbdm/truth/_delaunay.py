@@ -226,9 +226,13 @@ def _conforming_delaunay(pts, nb, bseg, xs, W, max_rounds=30):
         tri = d.simplices
         c = pts[tri].mean(axis=1)
         tri = tri[_inside(c, xs, W)]
-        edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        have = set(map(tuple, edges.tolist()))
-        missing = [k for k, (i, j) in enumerate(bseg) if (min(i, j), max(i, j)) not in have]
+        # boundary segments that are no triangle edge, by integer keys lo * n + hi (one
+        # vectorised membership test instead of a Python set of tuples)
+        n = len(pts)
+        e = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        have = np.min(e, axis=1).astype(np.int64) * n + np.max(e, axis=1)
+        want = np.min(bseg, axis=1).astype(np.int64) * n + np.max(bseg, axis=1)
+        missing = np.flatnonzero(~np.isin(want, have)).tolist()
         if not missing:
             tri = _drop_caps(pts, tri, nb)
             # drop unused points (interior points in no triangle, boundary points of a dropped
