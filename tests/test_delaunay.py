@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from prbdm.geometry import random_beam
-from prbdm.truth._delaunay import half_planform_mesh
+from prbdm.truth._delaunay import H_FLOOR, half_planform_mesh
 
 
 def _random(seed, index, hw_min):
@@ -70,21 +70,24 @@ def _angles(p, t):
 
 def _chords(p, t, xs, ws):
     """Boundary edges (in one triangle) and which of them cut across the polygon instead of
-    running along it: where the mesher dropped a flat cap (three boundary points on an edge
-    kinked by a fraction of a degree, each at most 1e-6 of the area, _delaunay._drop_caps)."""
+    running along it, with their midpoints' distance from it."""
     edges, count = _edges(t)
     bnd = edges[count == 1]
     mid = 0.5 * (p[:, bnd[:, 0]] + p[:, bnd[:, 1]]).T
-    return edges, count, bnd, _distance_to_boundary(mid, xs, ws) > 1e-12
+    dist = _distance_to_boundary(mid, xs, ws)
+    return edges, count, bnd, dist > 1e-12, dist
 
 
 def test_conforming(meshed):
     """Every edge belongs to one triangle (then it lies on the polygon's boundary) or two (then
-    it is interior); the boundary edges cover the polygon's perimeter, but for chords across
-    dropped flat caps (found on 1 of the 12 planforms here, "random (1, 13)": 10 chords at most
-    3.3e-5 from the polygon)."""
+    it is interior); the boundary edges cover the polygon's perimeter.
+
+    Exception, measured on "random (1, 13)": its free edge runs from (0.99993, 0.014) to the tip
+    (1, 0.236), a sliver 7e-5 wide beside the tip edge, narrower than the smallest element the
+    mesher makes (H_FLOOR = 1e-4): the mesh zig-zags across it and leaves parts of it out (10 of
+    294 boundary edges cut across, at most 3.3e-5 from the polygon; 3.8e-6 of the area)."""
     name, xs, ws, p, t, _ = meshed
-    edges, count, bnd, chord = _chords(p, t, xs, ws)
+    edges, count, bnd, chord, dist = _chords(p, t, xs, ws)
     assert set(count.tolist()) <= {1, 2}, name
     # every boundary node lies on the polygon, chords or not
     ends = np.unique(bnd)
@@ -96,11 +99,10 @@ def test_conforming(meshed):
     a, b = _polygon_segments(xs, ws)
     perimeter = np.hypot(*(b - a).T).sum()
     length = np.hypot(*(p[:, bnd[:, 0]] - p[:, bnd[:, 1]])).sum()
-    if not chord.any():
-        assert abs(length / perimeter - 1) < 1e-12, name
+    if name.startswith("random (1, 13)"):
+        assert chord.sum() <= 0.05 * len(bnd) and dist.max() < H_FLOOR, name
     else:
-        # measured: 10 of 294 boundary edges
-        assert chord.sum() <= 0.05 * len(bnd) and length < perimeter, name
+        assert not chord.any() and abs(length / perimeter - 1) < 1e-12, name
 
 
 def test_nodes_inside_and_stations_are_nodes(meshed):
@@ -128,10 +130,10 @@ def test_positive_areas_sum_to_the_planform_area(meshed):
                   - (P[1, 1] - P[1, 0]) * (P[0, 2] - P[0, 0]))
     assert np.all(area > 0), name                       # counter-clockwise, none degenerate
     exact = np.sum(np.diff(xs) * 0.5 * (ws[1:] + ws[:-1]))
-    chords = _chords(p, t, xs, ws)[3].sum()
-    # the planform's area exactly, less at most 1e-6 of it per dropped flat cap (measured: 3.8e-6
-    # with 10 chords on "random (1, 13)")
-    assert -1e-6 * chords - 1e-12 < area.sum() / exact - 1 < 1e-12, name
+    # the planform's area exactly, but for "random (1, 13)", whose sliver narrower than the
+    # smallest element is partly left out (measured: 3.8e-6 of the area, test_conforming)
+    missing = 1e-5 if name.startswith("random (1, 13)") else 1e-12
+    assert -missing < area.sum() / exact - 1 < 1e-12, name
 
 
 def test_angles(meshed):
