@@ -262,8 +262,11 @@ def compare(old_tree, panels, seed=0, hw_min=0.01, modes=5, threads=1):
     diffs = [np.abs(np.array(n["omega"]) / np.array(o["omega"]) - 1).max()
              for o, n in zip(res["old"], res["new"])]
     same = sum(o["mesh"] == n["mesh"] for o, n in zip(res["old"], res["new"]))
+    worst = int(np.argmax(diffs))
+    signed = np.array(res["new"][worst]["omega"]) / np.array(res["old"][worst]["omega"]) - 1
     print(f"largest relative frequency difference new vs old (modes 1-{modes}, all panels): "
-          f"{max(diffs):.1e} (median over panels {np.median(diffs):.1e})")
+          f"{max(diffs):.1e} (median over panels {np.median(diffs):.1e}); worst panel "
+          f"{res['new'][worst]['i']}: new / old - 1 = " + " ".join(f"{v:+.1e}" for v in signed))
     print(f"meshes identical (SHA-256 of nodes and elements): {same} of {panels}")
     print(f"(load average at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores)")
     print()

@@ -209,7 +209,8 @@ class ArgyrisSpace:
         self.dx = self.absdet[:, None] * W[None, :]          # (elements, points)
         P, _, _, Pss, Pst, Ptt = _monomials(X[0], X[1])      # (21, points)
         self._P = P
-        self._Pdd = np.stack([Pss, Pst, Ptt])                # (3, 21, points)
+        # value and local second derivatives side by side: one matrix product gives all four
+        self._Pall = np.hstack([P, Pss, Pst, Ptt])           # (21, 4 * points)
 
     def get_dofs(self, facets):
         return self.dofs.get_facet_dofs(facets)
@@ -248,6 +249,12 @@ class ArgyrisSpace:
         cols = np.broadcast_to(dofs[:, None, :], shape)
         ok = (rows >= 0) & (cols >= 0)
         rows, cols = rows[ok], cols[ok]
+        if len(mats) == 2:
+            # two matrices of one sparsity pattern in one conversion (as the real and imaginary
+            # parts of a complex one: the same sums in the same order as two conversions)
+            A = sp.csr_matrix((mats[0][ok] + 1j * mats[1][ok], (rows, cols)), shape=(n, n))
+            return [sp.csr_matrix((part, A.indices, A.indptr), shape=(n, n))
+                    for part in (A.data.real.copy(), A.data.imag.copy())]
         return [sp.csr_matrix((Ke[ok], (rows, cols)), shape=(n, n)) for Ke in mats]
 
     def values(self) -> np.ndarray:
@@ -260,12 +267,14 @@ class ArgyrisSpace:
         quadrature points: ``val`` (elements, modes, points) and ``hess`` (3, elements, modes,
         points) as (u_xx, u_xy, u_yy)."""
         coef = np.transpose(phi[self.element_dofs], (1, 0, 2))   # (elements, 21, modes)
-        mono = self.C @ coef                                      # monomial coefficients
-        mono = np.transpose(mono, (0, 2, 1))                      # (elements, modes, 21)
-        val = mono @ self._P
-        local = np.stack([mono @ D for D in self._Pdd])           # (3, elements, modes, points)
-        hess = np.einsum("eab,bemq->aemq", self.R, local)
-        return val, hess
+        mono = np.transpose(self.C @ coef, (0, 2, 1))             # monomial coefficients
+        nel, modes, _ = mono.shape
+        nq = self._P.shape[1]
+        f = (mono.reshape(-1, 21) @ self._Pall).reshape(nel, modes, 4, nq)
+        R = self.R[:, :, :, None, None]                           # (elements, 3, 3, 1, 1)
+        l0, l1, l2 = f[:, :, 1], f[:, :, 2], f[:, :, 3]
+        hess = np.stack([R[:, a, 0] * l0 + R[:, a, 1] * l1 + R[:, a, 2] * l2 for a in range(3)])
+        return f[:, :, 0], hess
 
 
 class LocalArgyris(ElementTriArgyris):
