@@ -271,10 +271,8 @@ class ArgyrisSpace:
         nel, modes, _ = mono.shape
         nq = self._P.shape[1]
         f = (mono.reshape(-1, 21) @ self._Pall).reshape(nel, modes, 4, nq)
-        R = self.R[:, :, :, None, None]                           # (elements, 3, 3, 1, 1)
-        l0, l1, l2 = f[:, :, 1], f[:, :, 2], f[:, :, 3]
-        hess = np.stack([R[:, a, 0] * l0 + R[:, a, 1] * l1 + R[:, a, 2] * l2 for a in range(3)])
-        return f[:, :, 0], hess
+        hess = np.matmul(self.R[:, None], f[:, :, 1:])            # (elements, modes, 3, points)
+        return f[:, :, 0], np.moveaxis(hess, 2, 0)
 
 
 class LocalArgyris(ElementTriArgyris):

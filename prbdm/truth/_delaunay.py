@@ -296,11 +296,14 @@ def _smooth(pts, tri, nb):
     n = len(pts)
     i = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2], tri[:, 1], tri[:, 2], tri[:, 0]])
     j = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0], tri[:, 0], tri[:, 1], tri[:, 2]])
-    import scipy.sparse as sp
-    A = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
-    A.data[:] = 1.0
-    deg = np.asarray(A.sum(axis=1)).ravel()
-    avg = (A @ pts) / np.maximum(deg, 1)[:, None]
+    # each neighbour once, rows in order and neighbours ascending within a row: bincount then
+    # adds them in the order a CSR adjacency product would (the mesh stays bit-identical to the
+    # sparse-matrix version this replaces, at a third of its cost)
+    keys = np.unique(i.astype(np.int64) * n + j)
+    r, c = keys // n, keys % n
+    deg = np.bincount(r, minlength=n).astype(float)
+    avg = np.column_stack([np.bincount(r, weights=pts[c, k], minlength=n) for k in range(2)])
+    avg /= np.maximum(deg, 1)[:, None]
     new = pts.copy()
     new[nb:] = 0.5 * pts[nb:] + 0.5 * avg[nb:]
     return new
