@@ -257,10 +257,6 @@ class ArgyrisSpace:
                     for part in (A.data.real.copy(), A.data.imag.copy())]
         return [sp.csr_matrix((Ke[ok], (rows, cols)), shape=(n, n)) for Ke in mats]
 
-    def values(self) -> np.ndarray:
-        """(elements, 21, points): every local basis function at the quadrature points."""
-        return np.einsum("eni,nq->eiq", self.C, self._P)
-
     # ------------------------------------------------------------------ fields
     def fields(self, phi):
         """Value and global second derivatives of every column of ``phi`` (N, modes) at the

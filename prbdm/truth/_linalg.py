@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.linalg
 from scipy.sparse.linalg import LinearOperator, splu
 
 
@@ -119,7 +120,9 @@ class ShiftInvertLanczos:
         while True:
             m = self.T.shape[0]
             if m >= k + 2:
-                theta, S = np.linalg.eigh(self.T)
+                # scipy's LAPACK syev, not numpy's eigh (syevd): with multi-threaded OpenBLAS
+                # numpy's took 16 ms of CPU for a 40 x 40 matrix, threads waiting, scipy's 0.2
+                theta, S = scipy.linalg.eigh(self.T, driver="ev")
                 theta, S = theta[::-1][:k], S[:, ::-1][:, :k]     # largest theta = lowest lambda
                 # residual of each Ritz pair: beta * |last component|
                 resid = self.beta * np.abs(S[-1])

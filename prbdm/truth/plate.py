@@ -16,7 +16,7 @@ eigenvalues are upper bounds that converge fast; the cheap nonconforming Morley 
 property on small or thin elements (ill-conditioned global-monomial construction), so we use
 the same element built in local coordinates, with all element matrices computed at once
 (:class:`prbdm.truth._argyris.ArgyrisSpace`: exact integrals, batched numpy; scikit-fem's
-per-form assembly took 40 % of a solve).
+per-form basis evaluation and assembly took about half of a solve).
 
 Mesh (automatic, see :func:`plate_mesh`): a structured mesh mapped from the planform
 (:mod:`prbdm.truth._mapped`) when the free edge stays within 45 degrees of the span, which gives
