@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
+from scipy.spatial.distance import cdist
 
 __all__ = ["half_planform_mesh"]
 
@@ -97,7 +98,7 @@ def half_planform_mesh(xs, ws, h0=1.0 / 12, grade=0.4, corner_ratio=0.01, across
 
     def size(p):
         p = np.atleast_2d(p)
-        d = np.sqrt(((p[:, None, :] - src_p[None]) ** 2).sum(-1))
+        d = cdist(p, src_p)         # the same sqrt(dx^2 + dy^2) as broadcasting, cheaper
         h = np.min(src_h[None] + grade * d, axis=1)
         wloc = np.interp(p[:, 0], xs, W)
         return np.minimum(np.minimum(h, h0), np.maximum(across * wloc, H_FLOOR))
@@ -226,9 +227,13 @@ def _conforming_delaunay(pts, nb, bseg, xs, W, max_rounds=30):
         tri = d.simplices
         c = pts[tri].mean(axis=1)
         tri = tri[_inside(c, xs, W)]
-        edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        have = set(map(tuple, edges.tolist()))
-        missing = [k for k, (i, j) in enumerate(bseg) if (min(i, j), max(i, j)) not in have]
+        # boundary segments that are no triangle edge, by integer keys lo * n + hi (one
+        # vectorised membership test instead of a Python set of tuples)
+        n = len(pts)
+        e = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        have = np.min(e, axis=1).astype(np.int64) * n + np.max(e, axis=1)
+        want = np.min(bseg, axis=1).astype(np.int64) * n + np.max(bseg, axis=1)
+        missing = np.flatnonzero(~np.isin(want, have)).tolist()
         if not missing:
             tri = _drop_caps(pts, tri, nb)
             # drop unused points (interior points in no triangle, boundary points of a dropped
@@ -292,11 +297,14 @@ def _smooth(pts, tri, nb):
     n = len(pts)
     i = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2], tri[:, 1], tri[:, 2], tri[:, 0]])
     j = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0], tri[:, 0], tri[:, 1], tri[:, 2]])
-    import scipy.sparse as sp
-    A = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
-    A.data[:] = 1.0
-    deg = np.asarray(A.sum(axis=1)).ravel()
-    avg = (A @ pts) / np.maximum(deg, 1)[:, None]
+    # each neighbour once, rows in order and neighbours ascending within a row: bincount then
+    # adds them in the order a CSR adjacency product would (the mesh stays bit-identical to the
+    # sparse-matrix version this replaces, at a third of its cost)
+    keys = np.unique(i.astype(np.int64) * n + j)
+    r, c = keys // n, keys % n
+    deg = np.bincount(r, minlength=n).astype(float)
+    avg = np.column_stack([np.bincount(r, weights=pts[c, k], minlength=n) for k in range(2)])
+    avg /= np.maximum(deg, 1)[:, None]
     new = pts.copy()
     new[nb:] = 0.5 * pts[nb:] + 0.5 * avg[nb:]
     return new

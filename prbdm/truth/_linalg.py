@@ -1,10 +1,14 @@
 """Sparse linear algebra shared by the FEM models."""
 from __future__ import annotations
 
+import math
+
+import numpy as np
+import scipy.linalg
 from scipy.sparse.linalg import LinearOperator, splu
 
 
-def refined_inverse(K, steps: int = 1) -> LinearOperator:
+def refined_inverse(K, steps: int = 1, spd: bool = False) -> LinearOperator:
     """``K^-1`` as a LinearOperator for shift-invert Lanczos: a sparse LU of ``K`` plus
     ``steps`` rounds of iterative refinement (``x += LU^-1 (b - K x)``).
 
@@ -12,9 +16,19 @@ def refined_inverse(K, steps: int = 1) -> LinearOperator:
     condition numbers of 1e12 even after diagonal scaling; a plain LU solve then carries relative
     errors of ~1e-5 into the lowest eigenvalues. One refinement step squares that error away for
     the cost of one more triangular solve and one sparse product.
+
+    ``spd=True`` (``K`` symmetric positive definite, e.g. a diagonally scaled clamped stiffness):
+    SuperLU's symmetric mode, a minimum-degree ordering of ``K + K^T`` and no pivoting (an SPD
+    matrix needs none), which keeps the factors symmetric in structure: about 40 % fewer nonzeros
+    than the default column ordering with partial pivoting, hence a cheaper factorisation and
+    cheaper solves.
     """
     K = K.tocsc()
-    lu = splu(K)
+    if spd:
+        lu = splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+    else:
+        lu = splu(K)
 
     def solve(b):
         x = lu.solve(b)
@@ -24,3 +38,102 @@ def refined_inverse(K, steps: int = 1) -> LinearOperator:
 
     return LinearOperator(K.shape, matvec=solve, matmat=solve, dtype=float)
 
+
+
+class ShiftInvertLanczos:
+    """The lowest eigenpairs of ``K x = lambda M x`` (``K``, ``M`` symmetric positive definite)
+    by Lanczos on ``K^-1 M`` in the ``M`` inner product, with full reorthogonalisation.
+
+    It replaces ARPACK's ``eigsh(K, M=M, sigma=0, OPinv=...)`` for the plate, for two reasons:
+    with scipy's ARPACK the extraction of the Ritz vectors (``dseupd``) alone cost about 0.1 s
+    for a 4,000-DOF plate, two thirds of the eigen-solve, where the Ritz vectors are one small
+    matrix product here; and the Krylov basis is kept, so asking for more modes (the plate's
+    mode search doubles its count when too few bending modes were found) extends the basis
+    instead of starting over. With full reorthogonalisation (twice, "twice is enough") no Ritz
+    value is duplicated, and the Krylov space grows until every wanted pair has converged:
+    ``||K^-1 M x - theta x||_M <= tol * theta`` (ARPACK's criterion), read off the projected
+    matrix.
+
+    ``solve(b)`` = ``K^-1 b``; ``v0`` the start vector (a fixed one makes results reproducible).
+    """
+
+    def __init__(self, solve, M, v0, tol: float = 1e-10):
+        self.solve, self.M, self.tol = solve, M, tol
+        self.n = M.shape[0]
+        # rows: the M-orthonormal Krylov basis and M times it, grown by doubling
+        self._Q = np.empty((64, self.n))
+        self._MQ = np.empty((64, self.n))
+        self._AQ = np.empty((64, self.n))   # K^-1 M times each basis vector (the raw solves)
+        self.m = 0                          # basis vectors so far
+        self.T = np.zeros((0, 0))           # projected operator Q^T M K^-1 M Q (m - 1 square)
+        self.beta = 0.0                     # norm of the residual direction after the last step
+        self._restarts = np.random.default_rng(0)
+        self._append(np.asarray(v0, dtype=float))
+
+    def _append(self, w, Mw=None):
+        """Add ``w`` (already M-orthogonal to the basis) normalised; returns its M-norm."""
+        if Mw is None:
+            Mw = self.M @ w
+        nrm = math.sqrt(max(float(w @ Mw), 0.0))
+        if self.m == len(self._Q):
+            self._Q = np.vstack([self._Q, np.empty_like(self._Q)])
+            self._MQ = np.vstack([self._MQ, np.empty_like(self._MQ)])
+            self._AQ = np.vstack([self._AQ, np.empty_like(self._AQ)])
+        self._Q[self.m] = w / nrm
+        self._MQ[self.m] = Mw / nrm
+        self.m += 1
+        return nrm
+
+    def _orthogonalise(self, w):
+        """``w`` minus its M-projection on the basis, twice; returns it and the coefficients."""
+        Q, MQ = self._Q[:self.m], self._MQ[:self.m]
+        h = MQ @ w
+        w = w - h @ Q
+        c = MQ @ w
+        return w - c @ Q, h + c
+
+    def _step(self):
+        j = self.m - 1                                   # the newest basis vector
+        self._AQ[j] = self.solve(self._MQ[j])
+        w, h = self._orthogonalise(self._AQ[j])
+        T = np.zeros((j + 1, j + 1))
+        T[:j, :j] = self.T
+        # symmetric by construction: the Gram-Schmidt coefficients of the new column
+        T[:, j] = h
+        T[j, :] = h
+        self.T = T
+        Mw = self.M @ w
+        beta = math.sqrt(max(float(w @ Mw), 0.0))
+        if beta <= 1e-13 * np.abs(T).max():
+            # an invariant subspace: continue from a fresh direction, M-orthogonal to the basis
+            w, _ = self._orthogonalise(self._restarts.standard_normal(self.n))
+            self.beta = 0.0
+            self._append(w)
+            return
+        self.beta = self._append(w, Mw)
+
+    def eigs(self, k: int):
+        """The ``k`` lowest eigenvalues (ascending) and M-orthonormal eigenvectors (n, k)."""
+        k = int(k)
+        if k > self.n - 2:
+            raise ValueError(f"at most {self.n - 2} eigenpairs of a {self.n}-DOF problem")
+        while True:
+            m = self.T.shape[0]
+            if m >= k + 2:
+                # scipy's LAPACK syev, not numpy's eigh (syevd): with multi-threaded OpenBLAS
+                # numpy's took 16 ms of CPU for a 40 x 40 matrix, threads waiting, scipy's 0.2
+                theta, S = scipy.linalg.eigh(self.T, driver="ev")
+                theta, S = theta[::-1][:k], S[:, ::-1][:, :k]     # largest theta = lowest lambda
+                # residual of each Ritz pair: beta * |last component|
+                resid = self.beta * np.abs(S[-1])
+                if np.all(resid <= self.tol * np.abs(theta)) or m >= self.n - 1:
+                    break
+            self._step()
+        # Ritz vectors from the raw solves, (K^-1 M Q s) / theta instead of Q s: equal up to the
+        # residual, but in the range of K^-1. Once the Krylov space has taken in everything the
+        # start vector holds (ill-conditioned K: the off-diagonal of T falls to 1e-11 of its
+        # diagonal), new basis vectors are mostly rounding noise, with components along the
+        # stiffest modes that the operator hardly sees (a residual of 1e-6) but the Rayleigh
+        # quotient does (a slender strip's first frequency came out 8x too high). One more
+        # application of K^-1 damps them by the ratio of the eigenvalues (purification).
+        return 1.0 / theta, (self._AQ[:m].T @ S) / theta

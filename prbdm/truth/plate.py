@@ -14,14 +14,17 @@ the vertices, the normal slope at the edge midpoints). It is conforming in H^2, 
 eigenvalues are upper bounds that converge fast; the cheap nonconforming Morley triangle
 (quadratic) converges at O(h^2) only. scikit-fem's own ``ElementTriArgyris`` loses its C1
 property on small or thin elements (ill-conditioned global-monomial construction), so we use
-:class:`prbdm.truth._argyris.LocalArgyris`, the same element built in local coordinates.
+the same element built in local coordinates, with all element matrices computed at once
+(:class:`prbdm.truth._argyris.ArgyrisSpace`: exact integrals, batched numpy; scikit-fem's
+per-form basis evaluation and assembly took about half of a solve).
 
 Mesh (automatic, see :func:`plate_mesh`): a structured mesh mapped from the planform
 (:mod:`prbdm.truth._mapped`) when the free edge stays within 45 degrees of the span, which gives
 long right-angled elements on slender strips; otherwise an unstructured Delaunay triangulation
 (:mod:`prbdm.truth._delaunay`) that conforms to every station exactly, graded toward the
 clamped-free corner and the re-entrant free-edge corners (singular points of the plate solution),
-toward short edges and across narrow parts. Eigenvalues: shift-invert Lanczos on the
+toward short edges and across narrow parts. Eigenvalues: shift-invert Lanczos
+(:class:`prbdm.truth._linalg.ShiftInvertLanczos`, a symmetric-mode LU without pivoting) on the
 nondimensional, diagonally scaled matrices, then Rayleigh quotients from the fields.
 
 Half model: the planform and the material are symmetric about the x axis, so every mode is
@@ -42,14 +45,14 @@ import math
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import eigsh, splu
-from skfem import Basis, BilinearForm, LinearForm, MeshTri
+from scipy.sparse.linalg import splu
+from skfem import BilinearForm, LinearForm, MeshTri
 from skfem.helpers import dd, ddot, trace
 
-from ._argyris import LocalArgyris
+from ._argyris import ArgyrisSpace
 from ._delaunay import half_planform_mesh
 from ._mapped import is_benign, mapped_half_mesh
-from ._linalg import refined_inverse
+from ._linalg import ShiftInvertLanczos, refined_inverse
 from .modes import SECTION_THRESHOLD, section_fraction, select_bending
 
 __all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
@@ -78,6 +81,10 @@ def load(v, w):
 DEFAULT_ELEMENTS = 12
 #: the symmetric family is searched up to this many modes for the requested bending modes
 MAX_MODES_COMPUTED = 160
+#: Lanczos convergence: ``||K^-1 M x - theta x||_M <= tol theta`` for every wanted pair. The
+#: frequencies are Rayleigh quotients of the vectors, so their error is of the order of tol^2;
+#: the vectors enter the participations and section fractions to about tol
+LANCZOS_TOL = 1e-10
 
 
 def plate_omega_scale(beam) -> float:
@@ -122,107 +129,105 @@ def plate_mesh(beam, elements: int | None = None, modes: int = 5, mesher: str = 
     return MeshTri(p, t), info
 
 
-def _section_operators(basis, nodes):
-    """``B[i, j] = int hat_i(x) phi_j dA`` and ``G[i, k] = int hat_i hat_k dA`` for the 1-D hat
-    functions of x on ``nodes``, by the basis's own quadrature (exact for the hats' products with
-    the quintic basis on each element up to the quadrature order)."""
-    xq = basis.mapping.F(basis.X)[0]                         # (elements, points)
-    wq = basis.dx                                            # quadrature weights * |det J|
-    nel, nqp = xq.shape
-    q = np.arange(nel * nqp)
+def _section_operators(space, nodes):
+    """``Hw[i, q] = hat_i(x_q) w_q`` and ``G[i, k] = int hat_i hat_k dA`` for the 1-D hat
+    functions of x on ``nodes``, by the space's degree-10 quadrature (exact for the hats' products
+    with the quintic basis on each element up to the quadrature order): ``Hw @ u(x_q)`` is
+    ``int hat_i u dA`` for a field ``u`` given at the quadrature points."""
+    xq, wq = space.xq, space.dx                              # (elements, points)
+    nq = xq.size
+    q = np.arange(nq)
     x = xq.ravel()
     k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
     tpar = (x - nodes[k]) / (nodes[k + 1] - nodes[k])
     H = sp.csr_matrix((np.concatenate([1 - tpar, tpar]), (np.concatenate([k, k + 1]),
                                                           np.concatenate([q, q]))),
-                      shape=(len(nodes), nel * nqp))
+                      shape=(len(nodes), nq))
     Hw = H @ sp.diags(wq.ravel())
-    rows, cols, vals = [], [], []
-    for j in range(basis.Nbfun):
-        rows.append(q)
-        cols.append(np.repeat(basis.element_dofs[j], nqp))
-        vals.append(np.asarray(basis.basis[j][0]).ravel())
-    Phi = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                        shape=(nel * nqp, basis.N))
-    return (Hw @ Phi).tocsr(), (Hw @ H.T).tocsc()
+    return Hw.tocsr(), (Hw @ H.T).tocsc()
 
 
-def _rayleigh(basis, phi, nu):
+def _rayleigh(space, phi, nu, Hw=None):
     """``a(phi, phi) / m(phi, phi)`` and ``m(phi, phi)`` for every column of ``phi``, from the
-    fields at the quadrature points (a sum of positive terms: no cancellation)."""
-    nb = basis.Nbfun
-    # per element: the 21 local basis functions' value and Hessian at the points, (nel, 21, 4q)
-    F = np.stack([np.concatenate([np.asarray(basis.basis[j][0]), basis.basis[j][0].hess[0, 0],
-                                  basis.basis[j][0].hess[0, 1], basis.basis[j][0].hess[1, 1]],
-                                 axis=1) for j in range(nb)], axis=1)
-    coef = np.transpose(phi[basis.element_dofs], (1, 2, 0))     # (nel, modes, 21)
-    fields = coef @ F                                            # (nel, modes, 4q)
-    q = basis.dx.shape[1]
-    val, hxx, hxy, hyy = (fields[:, :, i * q:(i + 1) * q] for i in range(4))
-    w = basis.dx[:, None, :]
+    fields at the quadrature points (a sum of positive terms: no cancellation); with ``Hw`` from
+    :func:`_section_operators` also the section integrals ``int hat_i phi dA`` (hats, modes)."""
+    val, (hxx, hxy, hyy) = space.fields(phi)                 # (elements, modes, points)
+    w = space.dx[:, None, :]
     energy = ((1 - nu) * (hxx ** 2 + 2 * hxy ** 2 + hyy ** 2) + nu * (hxx + hyy) ** 2) * w
     m = (val ** 2 * w).sum(axis=(0, 2))
-    return energy.sum(axis=(0, 2)) / m, m
+    sections = None
+    if Hw is not None:
+        sections = Hw @ np.transpose(val, (0, 2, 1)).reshape(-1, val.shape[1])
+    return energy.sum(axis=(0, 2)) / m, m, sections
+
+
+def _scaled(A, d):
+    """``diag(d) A diag(d)`` of a CSR matrix, in place of its data."""
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    A.data *= d[rows] * d[A.indices]
+    return A
 
 
 def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None = None,
                 selection: str = "section", **mesh_kwargs) -> dict:
     nu = beam.material.nu
     mesh, info = plate_mesh(beam, elements, modes, **mesh_kwargs)
-    # a fresh element per solve: the element caches per-mesh data on the instance
-    element = LocalArgyris()
-    basis = Basis(mesh, element)                    # degree-10 rule: exact for the mass
-    K = bending.assemble(Basis(mesh, element, intorder=6), nu=nu)   # exact for the stiffness
-    M = mass.assemble(basis)
-    f = load.assemble(basis)
-    ones = np.zeros(basis.N)
-    ones[basis.nodal_dofs[0]] = 1.0                 # the constant 1 in the Argyris basis
+    # element matrices built element-batched and exactly (prbdm.truth._argyris.ArgyrisSpace);
+    # the same space as Basis(mesh, LocalArgyris()) with scikit-fem's assembly, at a fraction
+    # of the cost
+    space = ArgyrisSpace(mesh)
+    Ke, Me = space.element_stiffness(nu), space.element_mass()
+    f = space.load()
+    ones = np.zeros(space.N)
+    ones[space.nodal_dofs[0]] = 1.0                 # the constant 1 in the Argyris basis
     area = float(f @ ones)                          # nondimensional half area (= half mass)
 
     ymax = float(mesh.p[1].max())
     root = mesh.facets_satisfying(lambda x: x[0] < 1e-12)
     axis = mesh.facets_satisfying(lambda x: x[1] < 1e-12 * max(ymax, 1.0))
-    clamped = basis.get_dofs(root).all(["u", "u_x", "u_y", "u_xy", "u_yy", "u_n"])
-    sym = basis.get_dofs(axis).all(["u_y", "u_xy", "u_n"])
-    anti = basis.get_dofs(axis).all(["u", "u_x", "u_xx", "u_yy"])
+    clamped = space.get_dofs(root).all(["u", "u_x", "u_y", "u_xy", "u_yy", "u_n"])
+    sym = space.get_dofs(axis).all(["u_y", "u_xy", "u_n"])
+    anti = space.get_dofs(axis).all(["u", "u_x", "u_xx", "u_yy"])
     hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
-    B, G = _section_operators(basis, hats)
+    Hw, G = _section_operators(space, hats)
     G_lu = splu(G)
 
-    families = {"symmetric": np.setdiff1d(np.arange(basis.N), np.union1d(clamped, sym))}
+    families = {"symmetric": np.setdiff1d(np.arange(space.N), np.union1d(clamped, sym))}
     if all_modes:
-        families["antisymmetric"] = np.setdiff1d(np.arange(basis.N), np.union1d(clamped, anti))
+        families["antisymmetric"] = np.setdiff1d(np.arange(space.N), np.union1d(clamped, anti))
     want = int(modes)
     found = {}
     for name, free in families.items():
-        Kf, Mf = K[free][:, free], M[free][:, free]
+        Kf, Mf = space.assemble([Ke, Me], free)
         # symmetric diagonal scaling: the Argyris DOFs (w, slopes, curvatures) scale like
         # 1, h^-1, h^-2; D K D has a unit diagonal, the same eigenvalues with D M D, and a far
         # smaller condition number for the sparse LU
         d = 1.0 / np.sqrt(Kf.diagonal())
-        D = sp.diags(d)
-        Kf, Mf = (D @ Kf @ D).tocsc(), (D @ Mf @ D).tocsc()
-        op = refined_inverse(Kf, steps=0)   # eigenvalues come from the Rayleigh quotients
+        Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
+        # K is symmetric positive definite (clamped root): a symmetric-mode LU without pivoting
+        op = refined_inverse(Kf, steps=0, spd=True)   # eigenvalues from the Rayleigh quotients
         n = Kf.shape[0]
         cap = min(n - 2, MAX_MODES_COMPUTED)
         k = min(cap, max(2 * want + 4, 12))
+        # shift-invert Lanczos (prbdm.truth._linalg.ShiftInvertLanczos): ARPACK's criterion at
+        # tol 1e-10, a fixed start vector; a second round (more modes) extends the same basis
+        lanczos = ShiftInvertLanczos(op.matvec, Mf, np.ones(n), tol=LANCZOS_TOL)
         while True:
-            lam, vec = eigsh(Kf, k=k, M=Mf, sigma=0.0, which="LM", OPinv=op,
-                             v0=np.ones(Kf.shape[0]))
-            order = np.argsort(lam)
-            lam, vec = lam[order], vec[:, order] * d[:, None]
-            phi = np.zeros((basis.N, k))
+            lam, vec = lanczos.eigs(k)
+            vec = vec * d[:, None]
+            phi = np.zeros((space.N, k))
             phi[free] = vec
             # Rayleigh quotients from the fields (sums of positive terms, no cancellation)
-            lam, modal_mass = _rayleigh(basis, phi, nu)
+            lam, modal_mass, sections = _rayleigh(space, phi, nu, Hw)
             order = np.argsort(lam, kind="stable")
             lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
+            sections = sections[:, order]
             if name == "antisymmetric":
                 zero = np.zeros(k)
                 found[name] = (lam, phi, zero, zero, np.zeros(k, bool))
                 break
             part = (f @ phi) ** 2 / (modal_mass * area)
-            frac = section_fraction(B @ phi, G_lu, modal_mass)
+            frac = section_fraction(sections, G_lu, modal_mass)
             kept, complete = select_bending(part, frac, want, selection)
             if complete or k >= cap:
                 found[name] = (lam, phi, part, frac, kept)
@@ -250,12 +255,12 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
         # highest eigenvalue both reached (and every kept one), so that no mode is missing
         top = min(found["symmetric"][0][-1], found["antisymmetric"][0][-1])
         entries = [e for e in entries if e["lambda"] <= top * (1 + 1e-12) or e["kept"]]
-    values = phi_s[basis.nodal_dofs[0]][:, kept_idx]
+    values = phi_s[space.nodal_dofs[0]][:, kept_idx]
     scale = values[np.argmax(np.abs(values), axis=0), np.arange(len(kept_idx))]
     scale[scale == 0] = 1.0
     info["below_threshold_kept"] = int(np.sum(frac_s[kept_idx] < SECTION_THRESHOLD))
     info.update({"element": "Argyris triangle (C1 quintic), half model",
-                 "dofs": int(basis.N), "triangles": int(mesh.t.shape[1]),
+                 "dofs": int(space.N), "triangles": int(mesh.t.shape[1]),
                  "symmetric_modes_computed": int(len(lam_s)), "selection": selection})
     return {"lam": lam_s[kept_idx], "participation": part_s[kept_idx], "entries": entries,
             "shapes": {"kind": "plate", "p": mesh.p, "t": mesh.t, "w": (values / scale).T},
