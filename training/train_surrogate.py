@@ -42,7 +42,6 @@ import datetime as dt
 import json
 import math
 import os
-import sys
 import time
 from pathlib import Path
 
