@@ -98,8 +98,8 @@ def read_config(prog: str, path, settings: dict) -> dict:
         else:
             data = json.loads(text)
     except ValueError as exc:           # tomllib.TOMLDecodeError and JSONDecodeError both are
-        fail(prog, f"--config: {str(path)!r} is not valid {path.suffix.lstrip('.').upper() or 'JSON'}"
-                   f" ({str(exc).splitlines()[0]})")
+        kind = "TOML" if path.suffix.lower() == ".toml" else "JSON"
+        fail(prog, f"--config: {str(path)!r} is not valid {kind} ({str(exc).splitlines()[0]})")
     if not isinstance(data, dict):
         fail(prog, f"--config: {str(path)!r} must hold a table of settings")
     out = {}
