@@ -1,4 +1,5 @@
 """The optimised fit: its reported numbers, its constraints, its reproducibility, its optimality."""
+import dataclasses
 import json
 import math
 import subprocess
@@ -262,9 +263,8 @@ def test_stopping_starts_that_fall_behind_keeps_the_optimum(monkeypatch):
     fast = fit_prbdm(beam, om, joints=4)
     orig = fit_module._bfgs
 
-    def rule_off(*args, **kwargs):            # a window longer than the budget: never applies
-        kwargs["window"] = 10 ** 6
-        return orig(*args, **kwargs)
+    def rule_off(problem, z, rules):          # a window longer than the budget: never applies
+        return orig(problem, z, dataclasses.replace(rules, window=10 ** 6))
 
     monkeypatch.setattr(fit_module, "_bfgs", rule_off)
     full = fit_prbdm(beam, om, joints=4)
