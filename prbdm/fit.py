@@ -47,7 +47,7 @@ from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, ei
 
 __all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDIDATES",
            "REFINE_ITER", "gamma_from_z",
-           "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS"]
+           "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS", "StopRules"]
 
 DEFAULT_STARTS = 64
 #: smallest |z_j| of a start given by ``init_gamma`` (see :func:`fit_many`)
@@ -217,9 +217,9 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6, objective="eigenval
     """Curvature of Σ||r_i|| from the residual Jacobian (central differences, one batched call):
     Σ_i J_i^T (I - r̂_i r̂_i^T) J_i / ||r_i||, the Hessian without the residuals' own curvature."""
     rows, d = z.shape
-    eye = torch.eye(d, dtype=z.dtype)
+    eye = torch.eye(d, dtype=z.dtype, device=z.device)
     pts = z[:, None, :] + torch.cat([h * eye, -h * eye])
-    bb = _rows(beam, torch.arange(rows)[:, None].expand(-1, 2 * d))
+    bb = _rows(beam, torch.arange(rows, device=z.device)[:, None].expand(-1, 2 * d))
     with torch.no_grad():
         res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law, objective)
         res0, _ = _residuals(beam, z, poses, lam_truth, r, law, objective)
@@ -232,128 +232,224 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6, objective="eigenval
     return 100.0 / res0.shape[-2] * H
 
 
-def _bfgs(beam, beam_of_row, z, poses, lam_truth, r, law, max_iter, n_beams, quorum,
-          agree_rtol=1e-3, ftol=1e-9, merge_tol=1e-3, window=15, window_rtol=1e-6,
-          objective="eigenvalue", progress=None):
+@dataclass(frozen=True)
+class StopRules:
+    """When the batched BFGS (:func:`_bfgs`) stops a row (one start of one beam) or a beam.
+
+    A row stops when it has converged (a relative decrease below ``ftol``, ``stall`` iterations
+    in a row, or less than ``window_rtol`` relative progress over the last ``window``
+    iterations), when a better row of its beam is in the same valley (within ``merge_tol`` in
+    gamma, max-norm), when its beam's ``quorum`` best rows agree (within ``agree_rtol``) and have
+    converged, or when it is behind: at its pace over the last ``window`` iterations it would not
+    come within ``behind_rtol`` of its beam's best loss before ``max_iter``. The merge and quorum
+    checks run every ``check_every`` iterations (they compare all rows of a beam)."""
+
+    max_iter: int = 150
+    quorum: int = 3
+    agree_rtol: float = 1e-3
+    ftol: float = 1e-9
+    stall: int = 3
+    window: int = 15
+    window_rtol: float = 1e-6
+    behind_rtol: float = 1e-3
+    merge_tol: float = 1e-3
+    check_every: int = 5
+
+
+#: step lengths tried in each BFGS iteration, in one batched call (the longest that satisfies
+#: Armijo's condition is kept)
+STEP_LENGTHS = (1.0, 0.3, 0.1, 0.02)
+#: Armijo's sufficient-decrease constant
+ARMIJO_C = 1e-4
+#: longest step on the unit sphere [rad]
+MAX_STEP = 0.5
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The fixed data of one batched fit: every row is one start of one beam.
+
+    beam: the beams repeated per row; lam_truth (rows, r): each row's nondimensional truth;
+    beam_of_row (rows,): which of the n_beams each row fits."""
+
+    beam: BeamTensors
+    lam_truth: torch.Tensor
+    beam_of_row: torch.Tensor
+    n_beams: int
+    poses: torch.Tensor
+    r: int
+    law: str
+    objective: str
+
+    def value(self, idx, z, grad: bool):
+        """Loss (and its gradient if ``grad``) of the rows ``idx`` at z (len(idx), n+1)."""
+        return _objective(_rows(self.beam, idx), z, self.poses, self.lam_truth[idx], self.r,
+                          self.law, grad, self.objective)
+
+    def trial_values(self, idx, trial):
+        """Losses (len(idx), T) of T trial points per row, trial (len(idx), T, n+1)."""
+        bt = _rows(self.beam, idx[:, None].expand(-1, trial.shape[1]))
+        f, _ = _objective(bt, trial, self.poses, self.lam_truth[idx][:, None, :], self.r,
+                          self.law, False, self.objective)
+        return f
+
+    def initial_inverse(self, idx, z):
+        """Inverse of the Gauss-Newton curvature of rows ``idx`` at their z (len(idx), n+1)."""
+        H = _gauss_newton(_rows(self.beam, idx), z, self.poses, self.lam_truth[idx], self.r,
+                          self.law, objective=self.objective)
+        eye = torch.eye(z.shape[-1], dtype=z.dtype, device=z.device)
+        scale = torch.diagonal(H, dim1=-2, dim2=-1).mean(-1).clamp_min(1e-12)[:, None, None]
+        zz = z[:, :, None] * z[:, None, :]
+        # the loss is flat along z itself (z and c z give the same gamma): pin that direction
+        return torch.linalg.inv(H + scale * (zz + 1e-3 * eye))
+
+
+@dataclass
+class _BfgsState:
+    """Per row: z on the unit sphere, loss f, gradient g, inverse Hessian Hinv, whether it is
+    still active, how many small decreases in a row (stall), the losses of the last iterations
+    (hist, a ring buffer)."""
+
+    z: torch.Tensor
+    f: torch.Tensor
+    g: torch.Tensor
+    Hinv: torch.Tensor
+    active: torch.Tensor
+    stall: torch.Tensor
+    hist: torch.Tensor
+
+    @classmethod
+    def start(cls, problem: _Problem, z, window: int) -> "_BfgsState":
+        rows = z.shape[0]
+        every = torch.arange(rows, device=z.device)
+        f, g = problem.value(every, z, True)
+        return cls(z=z, f=f, g=g, Hinv=problem.initial_inverse(every, z[every]),
+                   active=torch.ones(rows, dtype=torch.bool, device=z.device),
+                   stall=torch.zeros(rows, dtype=torch.long, device=z.device),
+                   hist=f.detach().clone()[:, None].repeat(1, window))
+
+
+def _bfgs(problem: _Problem, z, rules: StopRules, progress=None):
     """Batched BFGS over rows (start x beam), z kept on the unit sphere. Returns z, loss, iters.
 
     The inverse Hessian starts from the Gauss-Newton curvature (good scaling from the first
     step); BFGS updates then add the residual curvature that Gauss-Newton misses, which matters
-    here because the residuals at the optimum are not small. Each iteration tries four step
-    lengths in one batched call and keeps the longest that satisfies Armijo's condition.
-
-    A row stops when it has converged (``ftol`` three times in a row, or less than
-    ``window_rtol`` relative progress over the last ``window`` iterations), when a better row of
-    its beam is in the same valley, when its beam's best rows agree, or when it is behind: at
-    its pace over the last ``window`` iterations it would not come within 0.1 % of its beam's
-    best loss before ``max_iter``. Most of a lone fit's time used to go to such rows, creeping
-    along poorer valleys to the iteration limit. Measured on 100 random beams (n = 4, seed 2019,
-    64 starts, batched): 64 s to 49 s, every loss within 2.5e-5 of the old one; a window of
-    10 was faster (40 s) but stopped the start that found one beam's best optimum early."""
-    rows, d = z.shape
-    dtype = z.dtype
-    lt_all = lam_truth[beam_of_row]
-    f, g = _objective(beam_rows := _rows(beam, beam_of_row), z, poses, lt_all, r, law, True,
-                      objective)
-    eye = torch.eye(d, dtype=dtype)
-
-    def initial_inverse(idx):
-        H = _gauss_newton(_rows(beam_rows, idx), z[idx], poses, lt_all[idx], r, law,
-                          objective=objective)
-        scale = torch.diagonal(H, dim1=-2, dim2=-1).mean(-1).clamp_min(1e-12)[:, None, None]
-        zz = z[idx, :, None] * z[idx, None, :]
-        # the loss is flat along z itself (z and c z give the same gamma): pin that direction
-        return torch.linalg.inv(H + scale * (zz + 1e-3 * eye))
-
-    Hinv = initial_inverse(torch.arange(rows))
-    active = torch.ones(rows, dtype=torch.bool)
-    stall = torch.zeros(rows, dtype=torch.long)
-    window = min(window, max_iter + 1)      # a window past the budget never applies
-    hist = f.detach().clone()[:, None].repeat(1, window)     # the loss of the last iterations
-    alphas = torch.tensor([1.0, 0.3, 0.1, 0.02], dtype=dtype)
+    here because the residuals at the optimum are not small. Each iteration tries the
+    :data:`STEP_LENGTHS` in one batched call and keeps the longest that satisfies Armijo's
+    condition. Rows stop by :class:`StopRules`. Most of a lone fit's time used to go to rows
+    creeping along poorer valleys to the iteration limit: the `behind` rule. Measured on 100
+    random beams (n = 4, seed 2019, 64 starts, batched): 64 s to 49 s, every loss within 2.5e-5
+    of the old one; a window of 10 was faster (40 s) but stopped the start that found one
+    beam's best optimum early."""
+    window = min(rules.window, rules.max_iter + 1)      # a window past the budget never applies
+    s = _BfgsState.start(problem, z, window)
+    alphas = torch.tensor(STEP_LENGTHS, dtype=z.dtype, device=z.device)
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, rules.max_iter + 1):
         if progress is not None:
-            progress(it, max_iter)
-        idx = torch.nonzero(active).squeeze(-1)
+            progress(it, rules.max_iter)
+        idx = torch.nonzero(s.active).squeeze(-1)
         if idx.numel() == 0:
             break
         # a row whose gradient is not finite (an exact fit: the gradient of a norm at zero)
         # stops where it is; the Gauss-Newton polish takes exact fits to round-off
-        lost = ~torch.isfinite(g[idx]).all(-1) | ~torch.isfinite(Hinv[idx]).all(-1).all(-1)
+        lost = ~torch.isfinite(s.g[idx]).all(-1) | ~torch.isfinite(s.Hinv[idx]).all(-1).all(-1)
         if lost.any():
-            active[idx[lost]] = False
+            s.active[idx[lost]] = False
             idx = idx[~lost]
             if idx.numel() == 0:
                 break
-        zi, fi, gi = z[idx], f[idx], g[idx]
-        p = -(Hinv[idx] @ gi[..., None]).squeeze(-1)
-        p = p - (p * zi).sum(-1, keepdim=True) * zi                      # tangent to the sphere
-        slope = (p * gi).sum(-1)
-        bad = ~(slope < 0)
-        p = torch.where(bad[:, None], -gi, p)                            # fall back to descent
-        slope = torch.where(bad, -(gi * gi).sum(-1), slope)
-        pn = torch.linalg.vector_norm(p, dim=-1, keepdim=True)
-        p = p * torch.clamp(0.5 / pn.clamp_min(1e-300), max=1.0)          # at most 0.5 rad
-        slope = (p * gi).sum(-1)
-        trial = zi[:, None, :] + alphas[:, None] * p[:, None, :]
-        trial = trial / torch.linalg.vector_norm(trial, dim=-1, keepdim=True)
-        bt = _rows(beam_rows, idx[:, None].expand(-1, len(alphas)))
-        ft, _ = _objective(bt, trial, poses, lt_all[idx][:, None, :], r, law, False, objective)
-        armijo = ft <= fi[:, None] + 1e-4 * alphas * slope[:, None]
-        first = torch.where(armijo.any(-1), armijo.float().argmax(-1), ft.argmin(-1))
-        z_new = trial[torch.arange(idx.numel()), first]
-        f_new = ft[torch.arange(idx.numel()), first]
-        improved = f_new < fi
-        z_new = torch.where(improved[:, None], z_new, zi)
-        f_new, g_new = _objective(_rows(beam_rows, idx), z_new, poses, lt_all[idx], r, law, True,
-                                  objective)
-        # BFGS update of the inverse Hessian where the curvature condition holds
-        s_ = z_new - zi
-        y_ = g_new - gi
-        sy = (s_ * y_).sum(-1)
-        ok = improved & (sy > 1e-12 * torch.linalg.vector_norm(s_, dim=-1)
-                         * torch.linalg.vector_norm(y_, dim=-1))
-        rho_ = torch.where(ok, 1.0 / torch.where(ok, sy, torch.ones_like(sy)), torch.zeros_like(sy))
-        V = eye - rho_[:, None, None] * s_[:, :, None] * y_[:, None, :]
-        Hn = V @ Hinv[idx] @ V.transpose(1, 2) + rho_[:, None, None] * s_[:, :, None] * s_[:, None, :]
-        Hinv[idx] = torch.where(ok[:, None, None], Hn, Hinv[idx])
-        if (~improved).any():                                            # restart from Gauss-Newton
-            z[idx] = z_new
-            stuck = idx[~improved]
-            Hinv[stuck] = initial_inverse(stuck)
-        z[idx], f[idx], g[idx] = z_new, f_new, g_new
-        small = (fi - f_new) <= ftol * fi + 1e-15
-        stall[idx] = torch.where(small, stall[idx] + 1, torch.zeros_like(stall[idx]))
-        active[idx[stall[idx] >= 3]] = False
-        slot = it % window
-        f_then, hist[idx, slot] = hist[idx, slot], f_new
-        if it >= window:
-            gain = f_then - f_new
-            best_of_beam = torch.full((n_beams,), math.inf, dtype=dtype).scatter_reduce(
-                0, beam_of_row, f, "amin")[beam_of_row[idx]]
-            behind = f_new - gain / window * (max_iter - it) > best_of_beam * (1 + 1e-3)
-            active[idx[(gain <= window_rtol * f_new) | behind]] = False
-        if it % 5 == 0:
-            # starts that have run into the same valley as a better start follow it: drop them
-            idx = torch.nonzero(active).squeeze(-1)
-            gam = gamma_from_z(z)
-            near = torch.cdist(gam[idx], gam, p=float("inf")) < merge_tol
-            same = beam_of_row[idx, None] == beam_of_row[None, :]
-            better = f[None, :] < f[idx, None]
-            active[idx[(near & same & better).any(-1)]] = False
-            # a beam stops when its `quorum` best starts agree and have converged
-            for bi in range(n_beams):
-                rows_b = torch.nonzero(beam_of_row == bi).squeeze(-1)
-                if not active[rows_b].any():
-                    continue
-                lb = f[rows_b]
-                order = torch.argsort(lb)[:quorum]
-                top = rows_b[order]
-                if (lb[order] <= lb[order[0]] * (1 + agree_rtol) + 1e-15).all() and \
-                        not active[top].any():
-                    active[rows_b] = False
-    return z, f, it
+        fi = s.f[idx]
+        f_new = _bfgs_step(problem, s, idx, alphas)
+        small = (fi - f_new) <= rules.ftol * fi + 1e-15
+        s.stall[idx] = torch.where(small, s.stall[idx] + 1, torch.zeros_like(s.stall[idx]))
+        s.active[idx[s.stall[idx] >= rules.stall]] = False
+        _stop_slow_rows(problem, s, idx, f_new, it, window, rules)
+        if it % rules.check_every == 0:
+            _stop_merged_rows(problem, s, rules)
+            _stop_agreed_beams(problem, s, rules)
+    return s.z, s.f, it
+
+
+def _bfgs_step(problem: _Problem, s: _BfgsState, idx, alphas):
+    """One BFGS iteration of the rows ``idx`` (line search, update of z, f, g and Hinv in
+    ``s``); returns their new losses."""
+    zi, fi, gi = s.z[idx], s.f[idx], s.g[idx]
+    p = -(s.Hinv[idx] @ gi[..., None]).squeeze(-1)
+    p = p - (p * zi).sum(-1, keepdim=True) * zi                      # tangent to the sphere
+    slope = (p * gi).sum(-1)
+    bad = ~(slope < 0)
+    p = torch.where(bad[:, None], -gi, p)                            # fall back to descent
+    slope = torch.where(bad, -(gi * gi).sum(-1), slope)
+    pn = torch.linalg.vector_norm(p, dim=-1, keepdim=True)
+    p = p * torch.clamp(MAX_STEP / pn.clamp_min(1e-300), max=1.0)
+    slope = (p * gi).sum(-1)
+    trial = zi[:, None, :] + alphas[:, None] * p[:, None, :]
+    trial = trial / torch.linalg.vector_norm(trial, dim=-1, keepdim=True)
+    ft = problem.trial_values(idx, trial)
+    armijo = ft <= fi[:, None] + ARMIJO_C * alphas * slope[:, None]
+    first = torch.where(armijo.any(-1), armijo.float().argmax(-1), ft.argmin(-1))
+    rows = torch.arange(idx.numel(), device=idx.device)
+    z_new = trial[rows, first]
+    f_new = ft[rows, first]
+    improved = f_new < fi
+    z_new = torch.where(improved[:, None], z_new, zi)
+    f_new, g_new = problem.value(idx, z_new, True)
+    # BFGS update of the inverse Hessian where the curvature condition holds
+    s_ = z_new - zi
+    y_ = g_new - gi
+    sy = (s_ * y_).sum(-1)
+    ok = improved & (sy > 1e-12 * torch.linalg.vector_norm(s_, dim=-1)
+                     * torch.linalg.vector_norm(y_, dim=-1))
+    rho_ = torch.where(ok, 1.0 / torch.where(ok, sy, torch.ones_like(sy)), torch.zeros_like(sy))
+    eye = torch.eye(zi.shape[-1], dtype=zi.dtype, device=zi.device)
+    V = eye - rho_[:, None, None] * s_[:, :, None] * y_[:, None, :]
+    Hn = V @ s.Hinv[idx] @ V.transpose(1, 2) + rho_[:, None, None] * s_[:, :, None] * s_[:, None, :]
+    s.Hinv[idx] = torch.where(ok[:, None, None], Hn, s.Hinv[idx])
+    if (~improved).any():                                            # restart from Gauss-Newton
+        s.z[idx] = z_new
+        stuck = idx[~improved]
+        s.Hinv[stuck] = problem.initial_inverse(stuck, s.z[stuck])
+    s.z[idx], s.f[idx], s.g[idx] = z_new, f_new, g_new
+    return f_new
+
+
+def _stop_slow_rows(problem: _Problem, s: _BfgsState, idx, f_new, it, window, rules):
+    """Stop rows that made too little progress over the window, or that are behind."""
+    slot = it % window
+    f_then, s.hist[idx, slot] = s.hist[idx, slot], f_new
+    if it < window:
+        return
+    gain = f_then - f_new
+    best_of_beam = torch.full((problem.n_beams,), math.inf, dtype=s.f.dtype,
+                              device=s.f.device).scatter_reduce(
+        0, problem.beam_of_row, s.f, "amin")[problem.beam_of_row[idx]]
+    behind = f_new - gain / window * (rules.max_iter - it) > best_of_beam * (1 + rules.behind_rtol)
+    s.active[idx[(gain <= rules.window_rtol * f_new) | behind]] = False
+
+
+def _stop_merged_rows(problem: _Problem, s: _BfgsState, rules):
+    """Starts that have run into the same valley as a better start follow it: drop them."""
+    idx = torch.nonzero(s.active).squeeze(-1)
+    gam = gamma_from_z(s.z)
+    near = torch.cdist(gam[idx], gam, p=float("inf")) < rules.merge_tol
+    same = problem.beam_of_row[idx, None] == problem.beam_of_row[None, :]
+    better = s.f[None, :] < s.f[idx, None]
+    s.active[idx[(near & same & better).any(-1)]] = False
+
+
+def _stop_agreed_beams(problem: _Problem, s: _BfgsState, rules):
+    """A beam stops when its ``quorum`` best starts agree and have converged."""
+    for bi in range(problem.n_beams):
+        rows_b = torch.nonzero(problem.beam_of_row == bi).squeeze(-1)
+        if not s.active[rows_b].any():
+            continue
+        lb = s.f[rows_b]
+        order = torch.argsort(lb)[:rules.quorum]
+        top = rows_b[order]
+        if (lb[order] <= lb[order[0]] * (1 + rules.agree_rtol) + 1e-15).all() and \
+                not s.active[top].any():
+            s.active[rows_b] = False
 
 
 def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
@@ -362,12 +458,12 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
     fit: `linear` poses with r = n); Gauss-Newton converges there quadratically, to round-off."""
     rows, d = z.shape
     f, _ = _objective(beam, z, poses, lam_truth, r, law, False, objective)
-    eye = torch.eye(d, dtype=z.dtype)
-    damping = torch.full((rows,), 1e-6, dtype=z.dtype)
+    eye = torch.eye(d, dtype=z.dtype, device=z.device)
+    damping = torch.full((rows,), 1e-6, dtype=z.dtype, device=z.device)
     h = 1e-7
     for _ in range(iters):
         pts = z[:, None, :] + torch.cat([h * eye, -h * eye])
-        bb = _rows(beam, torch.arange(rows)[:, None].expand(-1, 2 * d))
+        bb = _rows(beam, torch.arange(rows, device=z.device)[:, None].expand(-1, 2 * d))
         with torch.no_grad():
             res_all, _ = _residuals(bb, pts, poses, lam_truth[:, None, :], r, law, objective)
             res0, _ = _residuals(beam, z, poses, lam_truth, r, law, objective)
@@ -392,7 +488,7 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
 def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
              poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
              rep_rtol: float = 1e-3, quorum: int | None = None,
-             init_gamma=None, objective: str = "eigenvalue",
+             init_gamma=None, objective: str = "eigenvalue", device=None,
              progress=None) -> list[FitResult]:
     """Fit n-joint PRBDMs to several beams at once (all starts of all beams in one batch).
 
@@ -404,9 +500,10 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     beam from its own gamma(s) instead (e.g. a network's candidates, then a few iterations refine
     them, see :func:`refine_starts`); ``starts`` is then H. ``objective``: what is minimised,
     ``"eigenvalue"`` (the paper's loss) or ``"frequency"`` (the worst relative frequency error
-    per pose, see :mod:`prbdm.objectives`); every result reports both. ``progress``: called as
-    ``progress(iteration, max_iter)`` at each iteration (a progress bar). Returns one
-    :class:`FitResult` per beam.
+    per pose, see :mod:`prbdm.objectives`); every result reports both. ``device``: where the
+    fit runs (a torch device or its name); by default where ``omega_truth`` is when it is a
+    tensor, else the CPU. ``progress``: called as ``progress(iteration, max_iter)`` at each
+    iteration (a progress bar). Returns one :class:`FitResult` per beam (NumPy arrays).
     """
     t0 = time.perf_counter()
     objectives.check_objective(objective)
@@ -415,8 +512,11 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     max_iter = _check_int(max_iter, "max_iter", 1, 10 ** 6)
     if law not in LAWS:
         raise BadInput(f"law: must be one of {', '.join(LAWS)}, got {law!r}")
+    device = _fit_device(device, omega_truth)
+    if isinstance(omega_truth, torch.Tensor):
+        omega_truth = omega_truth.detach().cpu().numpy()
     beams = list(beams)
-    bt = as_beam_tensors(beams)
+    bt = as_beam_tensors(beams).to(device=device)
     omega_truth = torch.as_tensor(np.ascontiguousarray(omega_truth, dtype=np.float64))
     if omega_truth.ndim != 2 or omega_truth.shape[0] != len(beams):
         raise BadInput(f"omega_truth: need one row of truth frequencies per beam "
@@ -430,7 +530,8 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         raise BadInput("omega_truth: frequencies must be finite and > 0")
     if (omega_truth[:, 1:r] < omega_truth[:, :r - 1]).any():
         raise BadInput("omega_truth: frequencies must be ascending")
-    pose_t = make_poses(poses, n)
+    omega_truth = omega_truth.to(device)
+    pose_t = make_poses(poses, n).to(device)
     lam_hat = omega_truth[:, :r] ** 2 / bt.lambda0[:, None]           # nondimensional truth
     B = len(beams)
     if isinstance(seed, (int, np.integer)):
@@ -439,42 +540,23 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         seeds = [int(s) for s in seed]
         if len(seeds) != B:
             raise BadInput(f"seed: need one int or one per beam ({B}), got {len(seeds)}")
-    if init_gamma is None and len(set(seeds)) > 1:
-        z = torch.cat([start_points(n, starts, s) for s in seeds])       # (B*S, n+1)
-        S = z.shape[0] // B
-    elif init_gamma is None:
-        z0 = start_points(n, starts, seeds[0] if seeds else 0)           # (S, n+1)
-        S = z0.shape[0]
-        z = z0.repeat(B, 1)
-    else:
-        # a copy: a broadcast view is read-only, which torch warns about
-        g0 = torch.as_tensor(np.array(init_gamma, dtype=np.float64))
-        if g0.shape[:1] != (B,) or g0.shape[-1] != n + 1 or g0.ndim not in (2, 3):
-            raise BadInput(f"init_gamma: need shape ({B}, {n + 1}) or ({B}, H, {n + 1}), got "
-                           f"{tuple(g0.shape)}")
-        S = g0.shape[1] if g0.ndim == 3 else 1
-        g0 = g0.reshape(B * S, n + 1)
-        if not torch.isfinite(g0).all() or (g0 <= 0).any():
-            raise BadInput("init_gamma: must be finite and > 0")
-        g0 = (g0 / g0.sum(-1, keepdim=True)).clamp(GAMMA_MIN, GAMMA_MAX)
-        # a link at its bound has z_j = 0, where d gamma / d z_j = 0: the gradient and the
-        # Gauss-Newton curvature vanish in that direction and the coordinate would stay frozen
-        # at the bound (measured: fits from the simplex corners stopped after 4 iterations at
-        # 20-600 times the best loss). Starting z_j at INIT_Z_FLOOR moves gamma by <= 4e-4.
-        z = z_from_gamma(g0 / g0.sum(-1, keepdim=True)).clamp_min(INIT_Z_FLOOR)
-        z = z / torch.linalg.vector_norm(z, dim=-1, keepdim=True)
-    beam_of_row = torch.arange(B).repeat_interleave(S)
+    z = _initial_z(n, starts, seeds, init_gamma, B)
+    S = z.shape[0] // B
+    z = z.to(device)
+    beam_of_row = torch.arange(B, device=device).repeat_interleave(S)
     quorum = quorum or max(3, S // 16)
-    quorum = min(quorum, S)
-    z, loss, iters = _bfgs(bt, beam_of_row, z, pose_t, lam_hat, r, law, max_iter, B, quorum,
-                           objective=objective, progress=progress)
+    rules = StopRules(max_iter=max_iter, quorum=min(quorum, S))
+    problem = _Problem(beam=_rows(bt, beam_of_row), lam_truth=lam_hat[beam_of_row],
+                       beam_of_row=beam_of_row, n_beams=B, poses=pose_t, r=r, law=law,
+                       objective=objective)
+    z, loss, iters = _bfgs(problem, z, rules, progress)
     # polish each beam's near-best starts with Gauss-Newton steps
     best = torch.stack([loss[beam_of_row == bi].min() for bi in range(B)])
     top = torch.nonzero(loss <= best[beam_of_row] * (1 + rep_rtol) + 1e-12).squeeze(-1)
     z[top], loss[top] = _polish(_rows(bt, beam_of_row[top]), z[top], pose_t,
                                 lam_hat[beam_of_row[top]], r, law, objective=objective)
     elapsed = time.perf_counter() - t0
-    ref = uniform_gamma(n)
+    ref = uniform_gamma(n).to(device)
     results = []
     for bi in range(B):
         rows = slice(bi * S, (bi + 1) * S)
@@ -482,33 +564,83 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         gam = gamma_from_z(zb)
         best = lb.min()
         near = lb <= best * 1.01 + 1e-12
-        spread = float((gam[near].max(0).values - gam[near].min(0).values).max())
         cand = torch.nonzero(lb <= best * (1 + rep_rtol) + 1e-12).squeeze(-1)
         pick = cand[torch.argmin(torch.linalg.vector_norm(gam[cand] - ref, dim=-1))]
-        results.append(_result(beams[bi], bt, bi, zb[pick], pose_t, omega_truth[bi], lam_hat[bi],
-                               r, law, S, int(near.sum()), spread, iters, elapsed / B,
-                               seeds[bi], float(best), objective))
+        starts_info = _StartsSummary(
+            n_starts=S, n_near_best=int(near.sum()), iterations=iters, time_s=elapsed / B,
+            gamma_spread=float((gam[near].max(0).values - gam[near].min(0).values).max()),
+            seed=seeds[bi], best_loss_percent=float(best))
+        results.append(_result(problem, _rows(bt, torch.tensor([bi], device=device)), zb[pick],
+                               omega_truth[bi], lam_hat[bi], starts_info))
     return results
 
 
-def _result(beam, bt, bi, z, poses, omega_truth, lam_hat, r, law, S, near, spread, iters,
-            time_s, seed, best, objective="eigenvalue"):
-    b1 = _rows(bt, torch.tensor([bi]))
+def _fit_device(device, omega_truth) -> torch.device:
+    """The device a fit runs on: the one asked for, else that of a tensor ``omega_truth``."""
+    if device is None:
+        return omega_truth.device if isinstance(omega_truth, torch.Tensor) else torch.device("cpu")
+    try:
+        return torch.device(device)
+    except (RuntimeError, TypeError) as exc:
+        raise BadInput(f"device: must be a torch device such as cpu or cuda, got {device!r}") \
+            from exc
+
+
+def _initial_z(n, starts, seeds, init_gamma, B) -> torch.Tensor:
+    """(B * S, n+1) start points, S per beam, on the CPU (see :func:`fit_many`)."""
+    if init_gamma is None and len(set(seeds)) > 1:
+        return torch.cat([start_points(n, starts, s) for s in seeds])
+    if init_gamma is None:
+        return start_points(n, starts, seeds[0] if seeds else 0).repeat(B, 1)
+    # a copy: a broadcast view is read-only, which torch warns about
+    g0 = torch.as_tensor(np.array(init_gamma, dtype=np.float64))
+    if g0.shape[:1] != (B,) or g0.shape[-1] != n + 1 or g0.ndim not in (2, 3):
+        raise BadInput(f"init_gamma: need shape ({B}, {n + 1}) or ({B}, H, {n + 1}), got "
+                       f"{tuple(g0.shape)}")
+    S = g0.shape[1] if g0.ndim == 3 else 1
+    g0 = g0.reshape(B * S, n + 1)
+    if not torch.isfinite(g0).all() or (g0 <= 0).any():
+        raise BadInput("init_gamma: must be finite and > 0")
+    g0 = (g0 / g0.sum(-1, keepdim=True)).clamp(GAMMA_MIN, GAMMA_MAX)
+    # a link at its bound has z_j = 0, where d gamma / d z_j = 0: the gradient and the
+    # Gauss-Newton curvature vanish in that direction and the coordinate would stay frozen
+    # at the bound (measured: fits from the simplex corners stopped after 4 iterations at
+    # 20-600 times the best loss). Starting z_j at INIT_Z_FLOOR moves gamma by <= 4e-4.
+    z = z_from_gamma(g0 / g0.sum(-1, keepdim=True)).clamp_min(INIT_Z_FLOOR)
+    return z / torch.linalg.vector_norm(z, dim=-1, keepdim=True)
+
+
+@dataclass(frozen=True)
+class _StartsSummary:
+    """What one beam's multistart says beside its result (see :class:`FitResult`)."""
+
+    n_starts: int
+    n_near_best: int
+    gamma_spread: float
+    iterations: int
+    time_s: float
+    seed: int
+    best_loss_percent: float
+
+
+def _result(problem: _Problem, b1: BeamTensors, z, omega_truth, lam_hat,
+            starts: _StartsSummary) -> FitResult:
+    """The :class:`FitResult` of one beam (b1, shape (1,)) at its chosen z (n+1,)."""
+    r = problem.r
     gamma = gamma_from_z(z[None])
-    mu = eigenvalues_unit_k(b1, gamma, poses, law)[0]                    # (m, n), k = 1
-    _, k = objectives.residuals(objective, mu[..., :r], lam_hat[:r])
+    mu = eigenvalues_unit_k(b1, gamma, problem.poses, problem.law)[0]    # (m, n), k = 1
+    _, k = objectives.residuals(problem.objective, mu[..., :r], lam_hat[:r])
     lam_nd = mu * k[:, None]
     lam = lam_nd * b1.lambda0[0]
     fe = frequency_errors(lam, omega_truth, r)
     # both measures, whatever was minimised: the paper's loss and the frequency objective
-    return FitResult(gamma=gamma[0].numpy(), k=k.numpy(),
+    return FitResult(gamma=gamma[0].cpu().numpy(), k=k.cpu().numpy(),
                      loss_percent=float(loss_percent(lam_nd, lam_hat, r)),
-                     objective=objective,
+                     objective=problem.objective,
                      frequency_percent=float(objectives.frequency_measure(lam_nd, lam_hat, r)),
-                     omega=lam.sqrt().numpy(), omega_truth=omega_truth.numpy(),
-                     freq_error=fe.numpy(), poses=poses.numpy(), law=law, modes=r, n_starts=S,
-                     n_near_best=near, gamma_spread=spread, iterations=iters, time_s=time_s,
-                     seed=seed, best_loss_percent=best)
+                     omega=lam.sqrt().cpu().numpy(), omega_truth=omega_truth.cpu().numpy(),
+                     freq_error=fe.cpu().numpy(), poses=problem.poses.cpu().numpy(),
+                     law=problem.law, modes=r, **vars(starts))
 
 
 #: a network-then-refined fit: the network's best REFINE_CANDIDATES candidates

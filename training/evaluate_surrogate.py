@@ -1,7 +1,9 @@
 """Evaluate a surrogate checkpoint on held-out beams of its data set; print one table.
 
-    python training/evaluate_surrogate.py [--checkpoint=checkpoints/beam-n4.safetensors]
-        [--data=DIR] [--split=heldout] [--refine_count=200] [--refit_count=20]
+    python training/evaluate_surrogate.py [--checkpoint checkpoints/beam-n4.safetensors]
+        [--data DIR] [--split heldout] [--refine_count 200] [--refit_count 20] [--config FILE]
+
+(``--help`` lists every setting.)
 
 Held-out beams (``--split``): ``test`` is the checkpoint's test split (``index % 10 == 9`` among
 the records it was trained from); ``new`` is every record of the data set with an index beyond the
@@ -21,63 +23,68 @@ training set has none) and labelling batch, nothing else. Measured, on the same 
   time, beside the full fit re-run with the same batching;
 - throughput of :func:`prbdm.surrogate.predict` on ``throughput_count`` random beams.
 """
-import ast
 import json
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-# ------------------------------------------------------------------------------- configuration
-checkpoint = "checkpoints/beam-n4.safetensors"
-data = ""                 # default: the data set path recorded in the checkpoint
-split = "heldout"         # test | new | heldout
-refine_count = 200        # beams refined, fit_batch per call (0: skip)
-refine_iter = 15          # prbdm.fit.REFINE_ITER
-refine_candidates = True  # also refine from the network's best candidates (REFINE_CANDIDATES) and
-                          # the fit's four fixed starts (prbdm.fit.refine_starts), each beam in one fit
-refit_count = 20          # beams re-fitted here for a same-machine time comparison (0: skip)
-fit_batch = 1             # beams per fit_many call in the refined and re-fit rows (1: one at
-                          # a time; the data sets label in batches of 8): time per beam is the
-                          # call's time divided by its beams
-throughput_count = 10000  # random beams for the batched-prediction rate (0: skip)
-threads = 1
-json_out = ""             # also write the results as JSON to this file
-# -------------------------------------------------------------------------------------------
+import _cli
+from _cli import Setting as S
+
+PROG = "evaluate_surrogate"
+SETTINGS = {
+    "checkpoint": S("checkpoints/beam-n4.safetensors", "surrogate checkpoint to evaluate"),
+    "data": S("", "data set folder (default: the one recorded in the checkpoint)"),
+    "split": S("heldout", "held-out beams: the checkpoint's test split, new beams, or both",
+               ("test", "new", "heldout")),
+    "refine_count": S(200, "beams refined, fit_batch per call (0: skip)"),
+    "refine_iter": S(15, "iterations of the refinement (prbdm.fit.REFINE_ITER)"),
+    "refine_candidates": S(True, "also refine from the network's best candidates and the fit's "
+                                 "four fixed starts (prbdm.fit.refine_starts), each beam in one "
+                                 "fit"),
+    "refit_count": S(20, "beams re-fitted here for a same-machine time comparison (0: skip)"),
+    "fit_batch": S(1, "beams per fit_many call in the refined and re-fit rows (1: one at a "
+                      "time; the data sets label in batches of 8)"),
+    "throughput_count": S(10000, "random beams for the batched-prediction rate (0: skip)"),
+    "threads": S(1, "torch threads"),
+    "json_out": S("", "also write the results as JSON to this file"),
+}
+config = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS)
+globals().update({k: v for k, v in config.items() if k in SETTINGS})
 
 
 def _fail(message):
     """Bad input: one line on stderr, exit status 2 (as the prbdm commands)."""
-    print(message, file=sys.stderr)
-    sys.exit(2)
+    _cli.fail(PROG, message.removeprefix(f"{PROG}: "))
 
 
-def _parse(argv):
-    cfg = {k: v for k, v in globals().items()
-           if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
-    for arg in argv:
-        if not arg.startswith("--") or "=" not in arg:
-            _fail(f"evaluate_surrogate: arguments are --name=value, got {arg!r}")
-        key, val = arg[2:].split("=", 1)
-        key = key.replace("-", "_")
-        if key not in cfg:
-            _fail(f"evaluate_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
-        globals()[key] = val if isinstance(cfg[key], str) else type(cfg[key])(ast.literal_eval(val))
-    return {k: globals()[k] for k in cfg}
-
-
-config = _parse(sys.argv[1:])
+for _name in ("refine_count", "refit_count", "throughput_count"):
+    if globals()[_name] < 0:
+        _fail(f"--{_name}: must be an integer >= 0, got {globals()[_name]}")
+for _name in ("refine_iter", "fit_batch", "threads"):
+    if globals()[_name] < 1:
+        _fail(f"--{_name}: must be an integer >= 1, got {globals()[_name]}")
+if json_out and Path(json_out).is_dir():
+    _fail(f"--json_out: {json_out!r} is a folder; give a file name")
 
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.errors import BadInput  # noqa: E402
 from prbdm.geometry import Material, random_beam  # noqa: E402
 
-sur = sg.load_checkpoint(checkpoint)
+try:
+    sur = sg.load_checkpoint(checkpoint)
+except BadInput as exc:
+    _fail(str(exc))
 meta = sur.metadata
-data = data or meta["dataset"]["path"]
-manifest = ds.read_manifest(data)
+# a recorded path is relative to the repository (no machine paths in committed metadata)
+data = data or str(_cli.find_path(meta["dataset"]["path"]))
+try:
+    manifest = ds.read_manifest(data)
+except BadInput as exc:
+    _fail(f"--data: {str(exc).removeprefix('DIR: ')}")
 # a set may differ from the training set in what does not change the beams' distribution or their
 # truth: the random stream (another seed: every beam is new), the fit's start count (a truth-only
 # training set has 0) and the labelling batch
@@ -110,7 +117,8 @@ batch = sg.BeamBatch.from_table(table, material)
 R = len(sur.norm["freq_mean"])
 omega_t = np.stack(table["omega_truth"].to_numpy())
 lam_hat = omega_t[:, :r] ** 2 / batch.lambda0[:, None]
-results = {"checkpoint": str(checkpoint), "data": str(data), "split": split, "beams": B,
+results = {"checkpoint": _cli.portable_path(checkpoint), "data": _cli.portable_path(data),
+           "split": split, "beams": B,
            "checkpoint_dataset_size": meta["dataset"]["size"],
            "checkpoint_max_index": max_index,
            "test_beams": int(test_mask.sum()), "new_beams": int(new_mask.sum())}

@@ -9,35 +9,41 @@ back (`cp -r datasets/plate-n4-truth data/`) and re-running the generating comma
 """
 from __future__ import annotations
 
-import argparse
 import shutil
 import sys
 from pathlib import Path
 
-import pyarrow as pa
-import pyarrow.parquet as pq
+import _cli
+from _cli import Setting
+
+PROG = "pack_dataset"
+SETTINGS = {"src": Setting("", "data set folder to pack"),
+            "dst": Setting("", "packed folder to write (replaced when it exists)"),
+            "rows": Setting(10000, "records per part")}
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("src")
-    ap.add_argument("dst")
-    ap.add_argument("--rows", type=int, default=10000)
-    a = ap.parse_args(argv)
-    src, dst = Path(a.src), Path(a.dst)
+    a = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, argv, positional=("src", "dst"),
+                   config=False)
+    src, dst = Path(a["src"]), Path(a["dst"])
+    if a["rows"] < 1:
+        _cli.fail(PROG, f"--rows: must be an integer >= 1, got {a['rows']}")
     parts = sorted(src.glob("part-*.parquet"))
     if not (src / "_manifest.json").is_file() or not parts:
-        print(f"pack_dataset: {src} is not a data set folder (no _manifest.json or parts)",
-              file=sys.stderr)
-        return 2
+        _cli.fail(PROG, f"{src} is not a data set folder (no _manifest.json or parts)")
+    if dst.resolve() == src.resolve():
+        _cli.fail(PROG, f"dst: must differ from src ({src}); packing replaces dst")
+    import pyarrow as pa            # after the arguments: --help works without the [data] extra
+    import pyarrow.parquet as pq
+
     tables = [pq.read_table(p) for p in parts]
     meta = tables[0].schema.metadata
     table = pa.concat_tables(tables).sort_by("index")
     tmp = dst.with_name(dst.name + ".tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
-    for i, start in enumerate(range(0, table.num_rows, a.rows)):
-        piece = table.slice(start, a.rows).replace_schema_metadata(meta)
+    for i, start in enumerate(range(0, table.num_rows, a["rows"])):
+        piece = table.slice(start, a["rows"]).replace_schema_metadata(meta)
         pq.write_table(piece, tmp / f"part-{i:06d}.parquet", compression="zstd",
                        compression_level=9)
     shutil.copy(src / "_manifest.json", tmp / "_manifest.json")

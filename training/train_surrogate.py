@@ -1,10 +1,15 @@
 """Train the PRBDM surrogate: from a data set folder to a checkpoint.
 
-One script, read top to bottom (nanoGPT style). Configuration is the plain values just below;
-override any of them on the command line as ``--name=value``:
+One script, read top to bottom (nanoGPT style). Every setting is a flag (``--help`` lists them
+with their defaults); ``--config FILE`` reads them from a TOML or JSON file, and flags override
+it. The recipe of each shipped checkpoint is a config under ``training/configs/``:
 
-    python training/train_surrogate.py --data=/work/data/beam-n4 \
-        --out=checkpoints/beam-n4.safetensors
+    python training/train_surrogate.py --config training/configs/beam-n4.toml \
+        --out runs/beam-n4.safetensors
+
+``--data`` (a data set folder, ``prbdm dataset generate``) and ``--out`` are required: nothing
+overwrites a checkpoint by default. Bad settings or a missing data set end the script with one
+line and exit status 2 before anything is written.
 
 What it does:
 
@@ -14,131 +19,194 @@ What it does:
 2. splits by beam index: ``index % 10 == 9`` test, ``== 8`` validation, the rest training;
 3. trains one network per training mode, each from the same seed:
    - ``label``: mean squared error of (gamma, log k, frequency correction), standardised;
-   - ``physics``: the PRBDM loss of SPEC §3 (Eq. 12-13, in percent) of the predicted (gamma, k)
+   - ``physics``: the ``objective`` (:mod:`prbdm.objectives`: the paper's eigenvalue loss, SPEC
+     §3 Eq. 12-13, or the frequency objective, both in percent) of the predicted (gamma, k)
      against the stored truth frequencies, through the differentiable :mod:`prbdm.model`; the
      frequency head keeps its label term (the truth frequencies are its only supervision);
    - ``combined``: label loss + ``phys_weight`` * physics loss;
-   with AdamW, the learning rate halved when the validation PRBDM loss stalls, and early stopping
+   with AdamW, the learning rate halved when the validation objective stalls, and early stopping
    on it (the best epoch's weights are kept);
-4. keeps the mode with the lowest validation PRBDM loss (mean or median, ``select``), and records all modes' validation
-   metrics in the checkpoint metadata;
-5. writes the checkpoint, loads it back through :func:`prbdm.surrogate.load_checkpoint` (the
-   NumPy inference path that ``prbdm predict`` uses) and measures it on the test split: the
-   re-evaluated PRBDM loss (median, p95) beside the optimised fits' on the same beams, and the
-   per-mode error of the direct truth-frequency prediction; these go into the metadata too.
+4. keeps the mode with the lowest validation objective (mean or median, ``select``), and records
+   all modes' validation metrics in the checkpoint metadata;
+5. writes the checkpoint beside ``OUT`` under a temporary name, loads it back through
+   :func:`prbdm.surrogate.load_checkpoint` (the NumPy inference path that ``prbdm predict``
+   uses), measures it on the test split (both measures, the paper's loss and the frequency
+   objective, beside the optimised fits' on the same beams, and the per-mode error of the direct
+   truth-frequency prediction), and only then writes ``OUT`` with these in its metadata.
 
-A log goes to stdout and to ``OUT`` with the suffix ``.log``.
+A log goes to stdout and to ``OUT`` with the suffix ``.log`` (written as ``.log.partial`` while
+the run lasts, so a failed run leaves an earlier log as it was).
 """
-import ast
+import atexit
 import datetime as dt
 import json
 import math
-import sys
+import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-# ------------------------------------------------------------------------------- configuration
-data = "/work/data/beam-n4"          # data set folder (prbdm.dataset format)
-out = "checkpoints/beam-n4.safetensors"
-modes = "label,physics,combined"     # training modes to compare, comma-separated
-seed = 0                             # torch seed of every mode (weights init and batch order)
-max_index = -1                       # use records with index <= max_index (-1: all present)
-width = 256                          # hidden units per layer
-depth = 3                            # hidden layers
-k_mode = "projection"                # SCFs: 'projection' (least squares against the predicted
-                                     # truth frequencies) or 'direct' (log k regressed)
-hypotheses = 4                       # candidate segmentations per beam; the one whose PRBDM best
-                                     # matches the predicted truth frequencies is kept
-members = 1                          # networks trained side by side, member j from seed + j, in
-                                     # parallel processes (one per member): an ensemble whose
-                                     # candidates are pooled (prbdm.surrogate.combine_members)
-wta_eps = 0.05                       # candidates' losses: (1 - eps) * best + eps * mean
-init_gamma = ""                      # start of candidate 0, comma-separated n+1 values (default:
-                                     # the mean fitted label; equal links for a truth-only set)
-batch_size = 128
-lr = 2e-3
-weight_decay = 1e-5
-max_epochs = 400
-patience = 80                        # epochs without a better validation loss before stopping
-lr_patience = 20                     # epochs without improvement before halving the lr
-lr_schedule = "plateau"              # plateau: halve after lr_patience epochs without a better
-                                     # validation loss; cosine: lr * (1 + cos(pi e / max_epochs)) / 2
-                                     # at epoch e, the same for every run of the same length
-max_minutes = 9.0                    # wall-clock limit per mode
-phys_weight = 1.0                    # combined mode: label + phys_weight * physics [%]
-freq_weight = 1.0                    # weight of the frequency head's label term
-vp_weight = 1.0                      # physics: + vp_weight * the loss of the predicted gamma with
-                                     # its best SCFs (variable projection on the truth, as the fit)
-loss_power = 1.0                     # physics: each beam's loss L [%] enters as L**p / p (p = 1: the
-                                     # mean loss; p = 0: log L, every beam's relative improvement
-                                     # counts alike, which moves the median rather than the tail)
-select = "mean"                      # validation statistic of the PRBDM loss that drives the lr
-                                     # schedule, early stopping and the choice of mode: mean, median
-cells = 16                           # feature cells along x / L
-rfe_segments = 96                    # links of the rigid-finite-element frequency estimate
-rfe_coarse = 16                      # > 0: that estimate by Rayleigh-Ritz from a chain of this
-                                     # many links (cheap; see prbdm.surrogate.rfe_log_omega)
-threads = 1                          # torch threads
-quiet = False                        # only the summary lines
-# -------------------------------------------------------------------------------------------
+import _cli
+from _cli import Setting
+
+PROG = "train_surrogate"
+S = Setting
+SETTINGS = {
+    "data": S("", "data set folder (prbdm dataset generate)"),
+    "out": S("", "checkpoint to write (.safetensors; a .json copy of its metadata and a .log "
+                 "beside it)"),
+    "objective": S("eigenvalue", "what the physics loss and the selection measure: the paper's "
+                                 "eigenvalue loss or the frequency objective (prbdm.objectives)",
+                   ("eigenvalue", "frequency")),
+    "device": S("auto", "torch device for training (auto: cuda when available, else cpu)"),
+    "modes": S("label,physics,combined", "training modes to compare, comma-separated"),
+    "seed": S(0, "torch seed of every mode (weights init and batch order)"),
+    "max_index": S(-1, "use records with index <= max_index (-1: all present)"),
+    "width": S(256, "hidden units per layer"),
+    "depth": S(3, "hidden layers"),
+    "k_mode": S("projection", "SCFs: least squares against the predicted truth frequencies, or "
+                              "log k regressed", ("projection", "direct")),
+    "hypotheses": S(4, "candidate segmentations per beam; the one whose PRBDM best matches the "
+                       "predicted truth frequencies is kept"),
+    "members": S(1, "networks trained side by side, member j from seed + j, in parallel "
+                    "processes: an ensemble whose candidates are pooled"),
+    "wta_eps": S(0.05, "candidates' losses: (1 - eps) * best + eps * mean"),
+    "init_gamma": S("", "start of candidate 0, comma-separated n+1 values (default: the mean "
+                        "fitted label; equal links for a truth-only set)"),
+    "batch_size": S(128, "beams per optimiser step"),
+    "lr": S(2e-3, "AdamW learning rate"),
+    "weight_decay": S(1e-5, "AdamW weight decay"),
+    "max_epochs": S(400, "epochs at most"),
+    "patience": S(80, "epochs without a better validation loss before stopping"),
+    "lr_patience": S(20, "plateau schedule: epochs without improvement before halving the lr"),
+    "lr_schedule": S("plateau", "plateau: halve after lr_patience epochs without a better "
+                                "validation loss; cosine: lr (1 + cos(pi e / max_epochs)) / 2",
+                     ("plateau", "cosine")),
+    "max_minutes": S(9.0, "wall-clock limit per mode [min]"),
+    "phys_weight": S(1.0, "combined mode: label + phys_weight * physics [%]"),
+    "freq_weight": S(1.0, "weight of the frequency head's label term"),
+    "vp_weight": S(1.0, "physics: + vp_weight * the objective of the predicted gamma with its "
+                        "best SCFs (variable projection on the truth, as the fit)"),
+    "loss_power": S(1.0, "physics: each beam's loss L [%] enters as L**p / p (p = 0: log L, "
+                         "which moves the median rather than the tail)"),
+    "select": S("mean", "validation statistic that drives the lr schedule, early stopping and "
+                        "the choice of mode", ("mean", "median")),
+    "cells": S(16, "feature cells along x / L"),
+    "rfe_segments": S(96, "links of the rigid-finite-element frequency estimate"),
+    "rfe_coarse": S(16, "> 0: that estimate by Rayleigh-Ritz from a chain of this many links"),
+    "threads": S(1, "torch threads"),
+    "quiet": S(False, "only the summary lines"),
+}
+
+config = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, required=("data", "out"))
+globals().update({k: v for k, v in config.items() if k in SETTINGS})
 
 
 def _fail(message):
     """Bad input: one line on stderr, exit status 2 (as the prbdm commands)."""
-    print(message, file=sys.stderr)
-    sys.exit(2)
+    _cli.fail(PROG, message)
 
 
-def _parse_overrides(argv):
-    cfg = {k: v for k, v in globals().items()
-           if not k.startswith("_") and isinstance(v, (int, float, str, bool))}
-    for arg in argv:
-        if not arg.startswith("--") or "=" not in arg:
-            _fail(f"train_surrogate: arguments are --name=value, got {arg!r}")
-        key, val = arg[2:].split("=", 1)
-        key = key.replace("-", "_")
-        if key not in cfg:
-            _fail(f"train_surrogate: unknown setting {key!r}; known: {', '.join(sorted(cfg))}")
-        default = cfg[key]
-        if isinstance(default, bool):
-            new = val.lower() in ("1", "true", "yes", "on")
-        elif isinstance(default, str):
-            new = val
-        else:
-            try:
-                new = type(default)(ast.literal_eval(val))
-            except (ValueError, SyntaxError):
-                _fail(f"train_surrogate: --{key} must be a {type(default).__name__}, got {val!r}")
-        globals()[key] = new
-    return {k: globals()[k] for k in cfg}
-
-
-config = _parse_overrides(sys.argv[1:])
-if select not in ("mean", "median"):
-    _fail(f"train_surrogate: --select must be mean or median, got {select!r}")
-if members < 1:
-    _fail(f"train_surrogate: --members must be >= 1, got {members}")
-if lr_schedule not in ("plateau", "cosine"):
-    _fail(f"train_surrogate: --lr_schedule must be plateau or cosine, got {lr_schedule!r}")
-if set(s.strip() for s in modes.split(",") if s.strip()) - {"label", "physics", "combined"}:
-    _fail(f"train_surrogate: --modes: each one of label, physics, combined, got {modes!r}")
+# ------------------------------------------------------------------------------- check inputs
+# everything that can be checked is checked here, before anything is written
+run_modes = [s.strip() for s in modes.split(",") if s.strip()]
+if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
+    _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
+for _name, _lo in (("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
+                   ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
+                   ("cells", 1), ("rfe_segments", 2), ("threads", 1)):
+    if globals()[_name] < _lo:
+        _fail(f"--{_name}: must be an integer >= {_lo}, got {globals()[_name]}")
+for _name in ("lr", "max_minutes"):
+    if not globals()[_name] > 0:
+        _fail(f"--{_name}: must be > 0, got {globals()[_name]}")
+if not 0 <= wta_eps <= 1:
+    _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
+if not 0 <= loss_power <= 8:
+    _fail(f"--loss_power: must be in [0, 8], got {loss_power}")
+out_path = Path(out)
+if out_path.suffix != ".safetensors":
+    _fail(f"--out: must end in .safetensors, got {out!r}")
+if out_path.is_dir():
+    _fail(f"--out: {out!r} is a folder; give the checkpoint's file name")
+if not Path(data, "_manifest.json").is_file():
+    _fail(f"--data: {data!r} is not a data set folder (no _manifest.json); make one with "
+          f"`prbdm dataset generate`")
 
 import torch  # noqa: E402  (after the configuration, as in nanoGPT)
 
-import prbdm  # noqa: E402
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import model  # noqa: E402
+from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
+from prbdm.errors import BadInput  # noqa: E402
 
+if device == "auto":
+    device = "cuda" if torch.cuda.is_available() else "cpu"
+try:
+    dev = torch.device(device)
+    torch.empty(0, device=dev)
+except (RuntimeError, AssertionError) as exc:     # unknown name, or no such device here
+    _fail(f"--device: {device!r} is not usable here ({str(exc).splitlines()[0]}); "
+          f"use cpu, cuda or auto")
 torch.set_num_threads(threads)
-out_path = Path(out)
+
+# ------------------------------------------------------------------------------- 1. data
+try:
+    manifest = ds.read_manifest(data)
+    spec = manifest["spec"]
+    columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
+               "loss_percent", "fit_time_s", "gamma_spread"]
+    table = ds.read_table(data, columns=columns, status="ok").to_pandas()
+except (BadInput, OSError, KeyError, ValueError) as exc:
+    _fail(f"--data: cannot read the data set {data!r} ({str(exc).splitlines()[0]})")
+if spec["law"] != "beam":
+    _fail(f"--data: the surrogate supports the 'beam' law only, data set has {spec['law']!r}")
+records_read = len(table)
+if max_index < 0:
+    max_index = int(table["index"].max()) if records_read else -1
+table = table[table["index"] <= max_index].reset_index(drop=True)
+N = len(table)
+if N < 10:
+    _fail(f"--data: need at least 10 ok records, found {N} in {data!r}")
+n = spec["joints"]
+r = min(n, spec["modes"])
+# a truth-only set (``prbdm dataset generate --starts 0``) has no fitted labels: only the physics
+# mode can train on it (it needs the truth frequencies alone); the label normalisation is then the
+# rigid-finite-element segmentation and k = 1
+labelled = spec["starts"] > 0
+if not labelled and set(run_modes) - {"physics"}:
+    _fail(f"--modes: the data set {data} is truth-only (starts 0, no fitted labels); only "
+          f"'physics' can train on it, got {modes!r}")
+if init_gamma:
+    try:
+        _g0 = [float(v) for v in init_gamma.split(",")]
+    except ValueError:
+        _g0 = []
+    if len(_g0) != n + 1 or min(_g0) <= sg.GAMMA_MIN:
+        _fail(f"--init_gamma: need {n + 1} comma-separated values > {sg.GAMMA_MIN}, got "
+              f"{init_gamma!r}")
+
+# ------------------------------------------------------------------------------- log
 out_path.parent.mkdir(parents=True, exist_ok=True)
 log_path = out_path.with_suffix(".log")
-log_file = open(log_path, "w")
+log_partial = log_path.with_name(log_path.name + ".partial")
+log_file = open(log_partial, "w")
 t_start = time.perf_counter()
+trial_path = out_path.with_name(f".{out_path.stem}.partial.safetensors")
+
+
+@atexit.register
+def _clean_up():
+    """A run that fails leaves no half-written file: an earlier log and checkpoint stay as
+    they were (the log of the failed run went to stdout as well)."""
+    if not log_file.closed:
+        log_file.close()
+        log_partial.unlink(missing_ok=True)
+    for p in (trial_path, trial_path.with_suffix(".json")):
+        p.unlink(missing_ok=True)
 
 
 def log(text, always=True):
@@ -149,26 +217,9 @@ def log(text, always=True):
 
 
 log(f"# train_surrogate {dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds')}")
-log("config " + json.dumps(config))
+log("config " + json.dumps({**config, "data": _cli.portable_path(data),
+                            "out": _cli.portable_path(out), "device": device}))
 
-# ------------------------------------------------------------------------------- 1. data
-manifest = ds.read_manifest(data)
-spec = manifest["spec"]
-if spec["law"] != "beam":
-    _fail(f"train_surrogate: the surrogate supports the 'beam' law only, data set has "
-          f"{spec['law']!r}")
-columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
-           "loss_percent", "fit_time_s", "gamma_spread"]
-table = ds.read_table(data, columns=columns, status="ok").to_pandas()
-records_read = len(table)
-if max_index < 0:
-    max_index = int(table["index"].max())
-table = table[table["index"] <= max_index].reset_index(drop=True)
-N = len(table)
-if N < 10:
-    _fail(f"train_surrogate: need at least 10 ok records, found {N}")
-n = spec["joints"]
-r = min(n, spec["modes"])
 poses = model.make_poses(spec["poses"], n)
 m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
@@ -181,14 +232,6 @@ names = sg.feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
 rfe0 = 2 * cells
-# a truth-only set (``prbdm dataset generate --starts 0``) has no fitted labels: only the physics
-# mode can train on it (it needs the truth frequencies alone); the label normalisation is then the
-# rigid-finite-element segmentation and k = 1
-labelled = spec["starts"] > 0
-run_modes = [s.strip() for s in modes.split(",") if s.strip()]
-if not labelled and set(run_modes) - {"physics"}:
-    _fail(f"train_surrogate: --modes: the data set {data} is truth-only (starts 0, no fitted "
-          f"labels); only 'physics' can train on it, got {modes!r}")
 if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
     y_logk = np.log(np.stack(table["k"].to_numpy()))
@@ -212,20 +255,22 @@ norm_np = {"feature_mean": f_mean, "feature_std": f_std,
            "logk_mean": y_logk[tr].mean(0), "logk_std": np.maximum(y_logk[tr].std(0), 1e-6),
            "freq_mean": y_corr[tr].mean(0), "freq_std": np.maximum(y_corr[tr].std(0), 1e-6),
            "gamma_mean": y_gamma[tr].mean(0), "gamma_std": np.maximum(y_gamma[tr].std(0), 1e-6)}
-norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in norm_np.items()}
+# the training data lives on the training device (every row of it, once)
+norm = {k: torch.as_tensor(v, dtype=torch.float32, device=dev) for k, v in norm_np.items()}
 
-F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32)
-Yg = torch.as_tensor(y_gamma, dtype=torch.float32)
-Yk = torch.as_tensor(y_logk, dtype=torch.float32)
-Yc = torch.as_tensor(y_corr, dtype=torch.float32)
-RFE = torch.as_tensor(feats[:, rfe0:rfe0 + R], dtype=torch.float32)
-BX = torch.as_tensor(batch.x)
-BW = torch.as_tensor(batch.w)
-lam_hat = torch.as_tensor(omega_truth[:, :r] ** 2 / batch.lambda0[:, None])
+F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32, device=dev)
+Yg = torch.as_tensor(y_gamma, dtype=torch.float32, device=dev)
+Yk = torch.as_tensor(y_logk, dtype=torch.float32, device=dev)
+Yc = torch.as_tensor(y_corr, dtype=torch.float32, device=dev)
+RFE = torch.as_tensor(feats[:, rfe0:rfe0 + R], dtype=torch.float32, device=dev)
+BX = torch.as_tensor(batch.x, device=dev)
+BW = torch.as_tensor(batch.w, device=dev)
+lam_hat = torch.as_tensor(omega_truth[:, :r] ** 2 / batch.lambda0[:, None], device=dev)
+poses_dev = poses.to(dev)
 
 
 def beam_rows(rows):
-    ones = torch.ones(len(rows), dtype=torch.float64)
+    ones = torch.ones(len(rows), dtype=torch.float64, device=dev)
     # nondimensional: the beam law and the unit-k eigenvalues use only x / L and w / L
     return model.BeamTensors(BX[rows], BW[rows], ones, ones, ones, ones)
 
@@ -233,16 +278,19 @@ def beam_rows(rows):
 def outputs(net, rows):
     """Decoded network outputs for data rows (dict, see prbdm.surrogate.decode_torch), with
     ``corr`` the predicted correction of the rigid-finite-element log frequencies."""
-    d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses, r)
+    d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses_dev, r)
     d["corr"] = d["log_omega_hat"] - RFE[rows]
     return d
 
 
 def physics_loss(rows, gamma, logk, mu=None):
-    """Per-beam PRBDM loss [%] (SPEC §3) of the predicted PRBDM against the truth, float64."""
+    """Per-beam ``objective`` [%] of the predicted PRBDM (its own k) against the truth, float64:
+    the paper's loss (SPEC §3) or the frequency objective (prbdm.objectives)."""
     if mu is None:
-        mu = model.eigenvalues_unit_k(beam_rows(rows), gamma.double(), poses, "beam")
+        mu = model.eigenvalues_unit_k(beam_rows(rows), gamma.double(), poses_dev, "beam")
     lam = mu * torch.exp(logk.double())[..., None]
+    if objective == "frequency":
+        return objectives.frequency_measure(lam, lam_hat[rows], r)
     return model.loss_percent(lam, lam_hat[rows], r)
 
 
@@ -261,13 +309,17 @@ def wta(values):
 
 
 def vp_loss(rows, d):
-    """Per-beam PRBDM loss [%] of the candidate segmentations with their best SCFs for the truth
-    (the fit's own objective, SPEC §3 Eq. 13 after variable projection), relaxed min over the
-    candidates: what the proposed gammas alone can reach."""
+    """Per-beam ``objective`` [%] of the candidate segmentations with their best SCFs for the
+    truth (what the fit minimises, after variable projection), relaxed min over the candidates:
+    what the proposed gammas alone can reach."""
     if d["mu_all"] is None:
-        mu_all = model.eigenvalues_unit_k(beam_rows(rows), d["gamma_all"].double(), poses, "beam")
+        mu_all = model.eigenvalues_unit_k(beam_rows(rows), d["gamma_all"].double(), poses_dev,
+                                          "beam")
     else:
         mu_all = d["mu_all"]
+    if objective == "frequency":
+        res, _ = objectives.residuals(objective, mu_all[..., :r], lam_hat[rows][:, None, :])
+        return wta(objectives.loss(objective, res))
     _, loss = sg.candidate_losses(mu_all[..., :r], lam_hat[rows])
     return wta(loss)
 
@@ -282,11 +334,11 @@ def label_terms(rows, d):
 
 @torch.no_grad()
 def evaluate(net, rows):
-    rows = torch.as_tensor(rows)
+    rows = torch.as_tensor(rows, device=dev)
     net.eval()
     d = outputs(net, rows)
-    phys = physics_loss(rows, d["gamma"], d["logk"], d["mu"]).numpy()
-    err = np.abs(np.expm1((d["corr"] - Yc[rows]).double().numpy()))  # relative frequency error
+    phys = physics_loss(rows, d["gamma"], d["logk"], d["mu"]).cpu().numpy()
+    err = np.abs(np.expm1((d["corr"] - Yc[rows]).double().cpu().numpy()))  # relative freq error
     net.train()
     return {"loss_mean": float(phys.mean()), "loss_median": float(np.median(phys)),
             "loss_p95": float(np.percentile(phys, 95)),
@@ -304,13 +356,10 @@ def make_net(member=0):
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
-        if init_gamma:
-            g0 = torch.tensor([float(v) for v in init_gamma.split(",")])
-            if g0.shape != (n + 1,) or not bool((g0 > sg.GAMMA_MIN).all()):
-                _fail(f"train_surrogate: --init_gamma: need {n + 1} values > {sg.GAMMA_MIN}")
-            g = g0 - sg.GAMMA_MIN
+        if init_gamma:                                      # checked with the inputs
+            g = torch.tensor([float(v) for v in init_gamma.split(",")]) - sg.GAMMA_MIN
         elif labelled:
-            g = (norm["gamma_mean"] - sg.GAMMA_MIN).clamp_min(1e-3)
+            g = (norm["gamma_mean"].cpu() - sg.GAMMA_MIN).clamp_min(1e-3)
         else:
             g = torch.full((n + 1,), 1.0 / (n + 1))             # no labels: equal links
         # candidates start apart: the mean label, rigid-finite-element-like, a long root link
@@ -324,7 +373,7 @@ def make_net(member=0):
             starts.append(torch.rand(n + 1, generator=gen0) + 0.2)
         for h in range(hypotheses):
             net.head.bias[h * (n + 1):(h + 1) * (n + 1)] = torch.log(starts[h] / starts[h].sum())
-    return net
+    return net.to(dev)
 
 
 def train(mode, member=0):
@@ -345,7 +394,8 @@ def train(mode, member=0):
     t0 = time.perf_counter()
     epoch = 0
     for epoch in range(1, max_epochs + 1):
-        perm = train_rows[torch.randperm(len(train_rows), generator=gen)]
+        # the order is drawn on the CPU, so that it is the same on every device
+        perm = train_rows[torch.randperm(len(train_rows), generator=gen)].to(dev)
         tot = 0.0
         for i in range(0, len(perm), batch_size):
             rows = perm[i:i + batch_size]
@@ -408,8 +458,12 @@ def train_ensemble(mode):
     ensemble's own validation and training metrics."""
     import multiprocessing
 
-    with multiprocessing.get_context("fork").Pool(members) as pool:
-        done = pool.map(_train_member, [(mode, j) for j in range(members)])
+    jobs = [(mode, j) for j in range(members)]
+    if dev.type == "cpu":
+        with multiprocessing.get_context("fork").Pool(members) as pool:
+            done = pool.map(_train_member, jobs)
+    else:                       # CUDA does not survive a fork: one member after the other
+        done = [_train_member(job) for job in jobs]
     nets_ = [make_net().load_weights(w) for w, _ in done]
     ens = SurrogateEnsemble(nets_)
     summary = {"mode": mode, "members": [s for _, s in done],
@@ -427,11 +481,15 @@ nets = {}
 for mode in run_modes:
     nets[mode], results[mode] = train(mode) if members == 1 else train_ensemble(mode)
 selected = min(results, key=lambda k: results[k]["val"]["loss_" + select])
-log(f"selected mode: {selected} (lowest {select} validation PRBDM loss)")
+log(f"selected mode: {selected} (lowest {select} validation {objective} objective)")
 net = nets[selected]
 train_time = time.perf_counter() - t_start
 
 # ------------------------------------------------------------------------------- 4. checkpoint
+# no machine paths in the metadata: paths inside the repository are recorded relative to it
+recorded_config = {**config, "device": device,
+                   **{k: _cli.portable_path(config[k]) for k in ("data", "out", "config")
+                      if config[k]}}
 versions = ds._versions()
 try:
     from importlib import metadata as _md
@@ -440,6 +498,7 @@ except Exception:  # noqa: BLE001
     pass
 meta = {
     "name": out_path.stem,
+    "objective": objective,
     "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
     "joints": n, "modes": r, "truth": spec["truth"], "law": spec["law"],
     "poses": poses.tolist(), "pose_spec": spec["poses"], "truth_modes": R,
@@ -456,7 +515,7 @@ meta = {
                 "select_poses": sg.gauss_select_poses(m),
                 "parameters": int(sum(p.numel() for p in net.parameters())),
                 "outputs": "see prbdm.surrogate.decode_numpy"},
-    "dataset": {"path": str(Path(data).resolve()), "spec": spec, "size": N,
+    "dataset": {"path": _cli.portable_path(data), "spec": spec, "size": N,
                 "records_ok_read": records_read, "max_index": max_index,
                 "manifest_count": manifest.get("count"), "sha256": sha,
                 "sha256_of": "sorted index + x, half_width, thickness, omega_truth, gamma, k "
@@ -464,30 +523,38 @@ meta = {
                 "dataset_git_commit": manifest.get("git_commit"),
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
                           **{k: int(len(v)) for k, v in split.items()}}},
-    "training": {"config": config,
+    "training": {"config": recorded_config,
                  "seeds": {"torch": seed, "numpy": seed, "batch_order": seed,
                            "members": [seed + j for j in range(members)]},
-                 "selected_mode": selected, "selection": f"lowest {select} validation PRBDM loss",
-                 "comparison": results, "time_s": train_time, "torch_threads": threads},
+                 "selected_mode": selected,
+                 "selection": f"lowest {select} validation {objective} objective",
+                 "comparison": results, "time_s": train_time, "torch_threads": threads,
+                 "device": str(dev)},
     "versions": versions, "git_commit": ds._git_commit(),
 }
-sg.save_checkpoint(out_path, net.weights(), meta)
+# first under a temporary name beside OUT: OUT is written once, complete, with its test metrics
+sg.save_checkpoint(trial_path, net.weights(), meta)
 
 # ------------------------------------------------------------------------------- 5. test metrics
-sur = sg.load_checkpoint(out_path)
+sur = sg.load_checkpoint(trial_path)
 te = split["test"]
 if len(te):
     t0 = time.perf_counter()
     pred = sur.predict(batch.take(te), frequencies=True, warn=False)
     pred_time = time.perf_counter() - t0
     lam_net = (pred.omega / np.sqrt(batch.lambda0[te])[:, None, None]) ** 2
-    loss_net = sg.loss_percent_np(lam_net, lam_hat[te].numpy(), r)
+    lam_hat_te = lam_hat[te].cpu().numpy()
+    loss_net = sg.loss_percent_np(lam_net, lam_hat_te, r)
+    freq_net = objectives.frequency_measure(torch.as_tensor(lam_net), torch.as_tensor(lam_hat_te),
+                                            r).numpy()
     ferr = np.abs(pred.omega_truth / omega_truth[te] - 1)
     loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
     has_fit = bool(np.isfinite(loss_fit).all())
     test = {"beams": int(len(te)),
             "loss_median": float(np.median(loss_net)), "loss_p95": float(np.percentile(loss_net, 95)),
             "loss_mean": float(loss_net.mean()), "loss_max": float(loss_net.max()),
+            "frequency_median": float(np.median(freq_net)),
+            "frequency_p95": float(np.percentile(freq_net, 95)),
             "fit_loss_median": float(np.median(loss_fit)) if has_fit else None,
             "fit_loss_p95": float(np.percentile(loss_fit, 95)) if has_fit else None,
             "freq_err_median": np.median(ferr, 0).tolist(),
@@ -496,12 +563,17 @@ if len(te):
             "predict_time_s_per_beam": pred_time / len(te),
             "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
     meta["test"] = test
-    sg.save_checkpoint(out_path, net.weights(), meta)
     fits = (f"optimised fits: median {test['fit_loss_median']:.4f} % p95 "
             f"{test['fit_loss_p95']:.4f} %" if has_fit else "no fits in a truth-only set")
     log(f"test ({len(te)} beams): PRBDM loss median {test['loss_median']:.4f} % p95 "
-        f"{test['loss_p95']:.4f} % ({fits}); freq-prediction error median per mode "
+        f"{test['loss_p95']:.4f} % ({fits}); frequency objective median "
+        f"{test['frequency_median']:.4f} % p95 {test['frequency_p95']:.4f} %; "
+        f"freq-prediction error median per mode "
         f"{[round(e * 100, 3) for e in test['freq_err_median']]} %")
+sg.save_checkpoint(out_path, net.weights(), meta)
+for _p in (trial_path, trial_path.with_suffix(".json")):
+    _p.unlink(missing_ok=True)
 log(f"checkpoint {out_path} ({out_path.stat().st_size / 1e3:.0f} kB), training "
     f"{train_time:.0f} s, total {time.perf_counter() - t_start:.0f} s; log {log_path}")
+os.replace(log_partial, log_path)
 log_file.close()

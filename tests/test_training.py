@@ -1,0 +1,225 @@
+"""The training scripts' command lines (training/_cli.py): --help, bad input (exit 2, one line,
+nothing written), configs (the shipped recipes included), and tiny training runs for both
+objectives whose checkpoints load and predict."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from prbdm import dataset as D
+from prbdm import objectives
+from prbdm import surrogate as sg
+
+REPO = Path(__file__).resolve().parents[1]
+TRAINING = REPO / "training"
+SCRIPTS = ("train_surrogate.py", "evaluate_surrogate.py", "pack_dataset.py")
+#: a network small and short enough to train in seconds (the runs test the plumbing, not quality)
+TINY_NET = ["--modes", "physics", "--max_epochs", "2", "--width", "16", "--depth", "1",
+            "--hypotheses", "1", "--batch_size", "8", "--rfe_segments", "24", "--rfe_coarse", "0",
+            "--cells", "4", "--quiet"]
+
+sys.path.insert(0, str(TRAINING))
+import _cli  # noqa: E402
+
+
+def script(name, *args, cwd=REPO):
+    return subprocess.run([sys.executable, str(TRAINING / name), *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def listing(folder: Path) -> dict:
+    """Every file under ``folder`` with its bytes: what a run wrote, truncated or removed."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def tiny_data(tmp_path_factory) -> Path:
+    """20 truth-only 2-joint beams (test split 2, validation 2)."""
+    out = tmp_path_factory.mktemp("training") / "data"
+    D.generate(out, 20, D.make_spec(joints=2, starts=0, seed=5), workers=0, progress="none")
+    return out
+
+
+# ------------------------------------------------------------------------------- --help
+@pytest.mark.parametrize("name", SCRIPTS)
+def test_help(name, tmp_path):
+    run = script(name, "--help", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith("usage:") and run.stderr == ""
+    assert listing(tmp_path) == {}
+
+
+# ------------------------------------------------------------------------------- bad input
+def _one_line_exit_2(run, *words):
+    assert run.returncode == 2, (run.returncode, run.stderr[-2000:])
+    assert run.stdout == "" and len(run.stderr.strip().splitlines()) == 1, run.stderr
+    assert "Traceback" not in run.stderr
+    for w in words:
+        assert w in run.stderr, (w, run.stderr)
+
+
+@pytest.mark.parametrize("args, words", [
+    ((), ["--data", "required"]),                                   # once overwrote a checkpoint
+    (("--data", "DATA"), ["--out", "required"]),
+    (("--data", "nowhere", "--out", "OUT"), ["--data", "nowhere", "_manifest.json"]),
+    (("--data=DATA", "--out=OUT", "--bogus", "1"), ["--bogus"]),
+    (("--data", "DATA", "--out", "OUT", "--width", "wide"), ["--width", "wide"]),
+    (("--data", "DATA", "--out", "OUT", "--objective", "loudness"), ["--objective", "frequency"]),
+    (("--data", "DATA", "--out", "OUT", "--members", "0"), ["--members", ">= 1"]),
+    (("--data", "DATA", "--out", "out.pt"), ["--out", ".safetensors"]),
+    (("--data", "DATA", "--out", "OUT", "--modes", "physics,guessing"), ["--modes"]),
+    (("--data", "DATA", "--out", "OUT", "--config", "none.toml"), ["--config", "none.toml"]),
+    (("--data", "DATA", "--out", "OUT", "--device", "abacus"), ["--device", "abacus"]),
+    (("--data", "DATA", "--out", "OUT", "--modes", "physics", "--init_gamma", "0.5,0.5"),
+     ["--init_gamma", "3"]),
+])
+def test_train_bad_input_exits_2_and_writes_nothing(tmp_path, tiny_data, args, words):
+    """Exit 2 with one line, and the folder of OUT exactly as before: an earlier log and
+    checkpoint untouched (the script once truncated the shipped log), nothing new."""
+    out = tmp_path / "ck" / "net.safetensors"
+    out.parent.mkdir()
+    out.write_bytes(b"an earlier checkpoint")
+    out.with_suffix(".log").write_text("an earlier log\n")
+    subst = {"DATA": str(tiny_data), "OUT": str(out)}
+    args = [a.replace("DATA", str(tiny_data)).replace("OUT", str(out)) if "=" in a
+            else subst.get(a, a) for a in args]
+    before = listing(tmp_path)
+    run = script("train_surrogate.py", *args, cwd=tmp_path)
+    _one_line_exit_2(run, *words)
+    assert listing(tmp_path) == before
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="a GPU is here")
+def test_train_cuda_without_a_gpu_exits_2(tmp_path, tiny_data):
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "a.safetensors",
+                 "--device", "cuda", cwd=tmp_path)
+    _one_line_exit_2(run, "--device", "cuda")
+    assert listing(tmp_path) == {}
+
+
+def test_truth_only_data_refuses_label_modes_before_writing(tmp_path, tiny_data):
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "a.safetensors",
+                 "--modes", "label,physics", cwd=tmp_path)
+    _one_line_exit_2(run, "--modes", "truth-only")
+    assert listing(tmp_path) == {}
+
+
+def test_evaluate_and_pack_bad_input(tmp_path):
+    _one_line_exit_2(script("evaluate_surrogate.py", "--split", "all", cwd=tmp_path), "--split")
+    _one_line_exit_2(script("evaluate_surrogate.py", "--checkpoint", "no.safetensors",
+                            cwd=tmp_path), "no.safetensors")
+    _one_line_exit_2(script("pack_dataset.py", cwd=tmp_path), "src")
+    _one_line_exit_2(script("pack_dataset.py", "nowhere", "dst", cwd=tmp_path), "nowhere")
+    _one_line_exit_2(script("pack_dataset.py", "a", "b", "--rows", "0", cwd=tmp_path), "--rows")
+    assert listing(tmp_path) == {}
+
+
+# ------------------------------------------------------------------------------- configs
+SETTINGS = {"data": _cli.Setting("", "data"), "width": _cli.Setting(256, "width"),
+            "lr": _cli.Setting(2e-3, "lr"), "quiet": _cli.Setting(False, "quiet"),
+            "select": _cli.Setting("mean", "select", ("mean", "median"))}
+
+
+def parse(*argv):
+    return _cli.parse("prog", "test", SETTINGS, list(map(str, argv)))
+
+
+def test_config_toml_and_json_flags_override(tmp_path):
+    toml = tmp_path / "c.toml"
+    toml.write_text('data = "d"\nwidth = 32\nlr = 1\nquiet = true\nselect = "median"\n')
+    got = parse("--config", toml)
+    assert got == {"data": "d", "width": 32, "lr": 1.0, "quiet": True, "select": "median",
+                   "config": str(toml)}
+    assert isinstance(got["lr"], float)
+    js = tmp_path / "c.json"
+    js.write_text(json.dumps({"width": 8, "select": "median"}))
+    got = parse("--config", js, "--width=64", "--data", "e", "--quiet=no")
+    assert (got["width"], got["data"], got["select"], got["quiet"]) == (64, "e", "median", False)
+    assert parse()["width"] == 256
+
+
+@pytest.mark.parametrize("text, word", [
+    ('wdith = 3\n', "wdith"), ('width = 3.5\n', "width"), ('width = "3"\n', "width"),
+    ('quiet = 1\n', "quiet"), ('select = "max"\n', "select"), ('width = \n', "valid TOML"),
+])
+def test_config_bad_values_exit_2(tmp_path, capsys, text, word):
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    with pytest.raises(SystemExit) as exc:
+        parse("--config", path)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and word in err
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_shipped_recipes_are_the_checkpoints_own(n, tmp_path):
+    """training/configs/beam-nN.toml holds what the shipped checkpoint's metadata records
+    (every setting it records), has no --out (a rerun never overwrites it), and the training
+    script accepts it (it gets as far as looking for the data set)."""
+    import tomllib
+
+    config = tomllib.loads((TRAINING / "configs" / f"beam-n{n}.toml").read_text())
+    meta = json.loads((REPO / "checkpoints" / f"beam-n{n}.json").read_text())
+    recorded = meta["training"]["config"]
+    assert "out" not in config
+    assert config["data"] == meta["dataset"]["path"]
+    for key, value in recorded.items():
+        if key not in ("data", "out"):
+            assert config[key] == value, key
+    run = script("train_surrogate.py", "--config", TRAINING / "configs" / f"beam-n{n}.toml",
+                 "--out", tmp_path / "x.safetensors", "--data", tmp_path / "none", cwd=tmp_path)
+    _one_line_exit_2(run, "--data", "_manifest.json")
+
+
+def test_no_machine_paths_in_committed_metadata():
+    for path in [*(REPO / "checkpoints").glob("*.json"),
+                 *(REPO / "docs" / "history").glob("*.json"), *(TRAINING / "configs").glob("*.toml")]:
+        text = path.read_text()
+        for prefix in ('"/work/', '"/tmp/', '"/home/', '"/root/'):
+            assert prefix not in text, (path.name, prefix)
+
+
+# ------------------------------------------------------------------------------- training runs
+@pytest.mark.parametrize("objective", ["eigenvalue", "frequency"])
+def test_tiny_training_run(tmp_path, tiny_data, objective):
+    """A few steps on a tiny set: a checkpoint that loads and predicts, a complete log, no
+    temporary file left; the recorded validation loss is the chosen objective's, recomputed
+    here from the loaded checkpoint on the validation beams."""
+    out = tmp_path / "runs" / "net.safetensors"
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--objective", objective,
+                 "--device", "cpu", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["net.json", "net.log",
+                                                            "net.safetensors"]
+    assert out.with_suffix(".log").read_text().rstrip().splitlines()[-1].startswith("checkpoint ")
+    sur = sg.load_checkpoint(out)
+    meta = sur.metadata
+    assert meta["objective"] == objective and objective in meta["training"]["selection"]
+    assert meta["training"]["config"]["objective"] == objective
+    assert meta["training"]["device"] == "cpu"
+    assert {"loss_median", "frequency_median"} <= meta["test"].keys()
+
+    table = D.read_table(tiny_data, columns=["index", "x", "half_width", "thickness", "length",
+                                             "omega_truth"], status="ok").to_pandas()
+    val = table[table["index"] % 10 == 8].reset_index(drop=True)
+    batch = sg.BeamBatch.from_table(val, D.read_manifest(tiny_data)["spec"]["beam"]["material"])
+    pred = sur.predict(batch, warn=False)
+    assert np.isfinite(pred.omega).all() and (pred.k > 0).all()
+    r = sur.modes
+    lam = torch.as_tensor((pred.omega / np.sqrt(batch.lambda0)[:, None, None]) ** 2)
+    truth = torch.as_tensor(np.stack(val["omega_truth"])[:, :r] ** 2 / batch.lambda0[:, None])
+    if objective == "frequency":
+        measure = objectives.frequency_measure(lam, truth, r)
+    else:
+        measure = torch.as_tensor(sg.loss_percent_np(lam.numpy(), truth.numpy(), r))
+    recorded = meta["training"]["comparison"]["physics"]["val"]["loss_mean"]
+    # float32 network weights: the NumPy path agrees with training's torch path to ~1e-6
+    assert float(measure.mean()) == pytest.approx(recorded, rel=1e-3)
