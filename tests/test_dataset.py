@@ -95,7 +95,7 @@ def test_generate_extend_and_plain_pyarrow(tmp_path):
 
     manifest = json.loads((out / D.MANIFEST).read_text())
     assert manifest["format"] == "prbdm-dataset" and manifest["count"] == 10
-    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH}
+    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH, "objective": "eigenvalue"}
     assert manifest["spec"]["seed"] == 7 and manifest["runs"][0]["fit_batch"] == 8
     assert {"python", "prbdm", "numpy", "pyarrow"} <= set(manifest["versions"])
     assert "git_commit" in manifest and len(manifest["runs"]) == 3
@@ -121,7 +121,7 @@ def test_refusals(tmp_path, capsys):
     assert main(["dataset", "generate", "--out", str(other), "--count", "1", *REAL]) == 2
     assert "not a prbdm data set" in capsys.readouterr().err
     # a folder being written by another run
-    with D._FolderLock(out):
+    with D.FolderLock(out):
         with pytest.raises(BadInput, match="another run"):
             D.generate(out, 4, D.make_spec(**SPEC), workers=0, labeller=fake_labeller,
                        progress="none")
@@ -300,7 +300,7 @@ def test_chunked_labels_equal_per_beam_fits():
     for rec in together:
         ref = D.label_beam(rec["index"], spec)
         assert rec["status"] == ref["status"] == "ok", (rec["error"], ref["error"])
-        assert rec["fit_seed"] == ref["fit_seed"] == D._fit_seed(spec, rec["index"])
+        assert rec["fit_seed"] == ref["fit_seed"] == D.fit_seed(spec, rec["index"])
         assert rec["x"] == ref["x"] and rec["omega_truth"] == ref["omega_truth"]
         assert np.allclose(rec["gamma"], ref["gamma"], atol=1e-3)
         assert rec["loss_percent"] == pytest.approx(ref["loss_percent"], rel=1e-4)
@@ -360,7 +360,7 @@ def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
 
     out = tmp_path / "set"
     spec = D.make_spec(**SPEC, fit_batch=3)
-    real_write, writes = D._write_part, []
+    real_write, writes = D.storage.write_part, []
 
     def crashing_write(*a, **kw):           # the 5th part write never happens: a crash
         if len(writes) >= 4:
@@ -368,11 +368,11 @@ def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
         writes.append(a[2][0]["index"])
         return real_write(*a, **kw)
 
-    monkeypatch.setattr(D, "_write_part", crashing_write)
+    monkeypatch.setattr(D.storage, "write_part", crashing_write)
     with pytest.raises(_Crash):
         D.generate(out, 6, spec, workers=0, part_size=1, progress="none")
-    monkeypatch.setattr(D, "_write_part", real_write)
-    assert sorted(D._existing_indices(out).tolist()) == [0, 1, 2, 3]   # chunk [3, 6) partly
+    monkeypatch.setattr(D.storage, "write_part", real_write)
+    assert sorted(D.existing_indices(out).tolist()) == [0, 1, 2, 3]   # chunk [3, 6) partly
     before = {p.name: p.read_bytes() for p in D.part_files(out)}
 
     real_many, batches = prbdm.fit.fit_many, []
@@ -458,7 +458,7 @@ def test_unreachable_scheduler_leaves_manifest_unchanged(tmp_path, monkeypatch):
     out = tmp_path / "set"
     D.generate(out, 10, D.make_spec(**SPEC), workers=0, labeller=fake_labeller, progress="none")
     before = (out / D.MANIFEST).read_bytes()
-    monkeypatch.setattr(D, "CONNECT_TIMEOUT_S", 0.5)
+    monkeypatch.setattr(D.execute, "CONNECT_TIMEOUT_S", 0.5)
     with pytest.raises(BadInput, match="--scheduler: cannot connect"):
         D.generate(out, 20, D.make_spec(**SPEC), scheduler="tcp://127.0.0.1:1",
                    labeller=fake_labeller, progress="none")
@@ -486,7 +486,7 @@ def test_progress_log_lines_when_not_a_terminal(tmp_path):
     import io
 
     stream = io.StringIO()
-    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    meter = D.Progress("auto", total=5, initial=1, stream=stream, every=0)
     assert meter.mode == "log"
     meter.start()
     for i in range(1, 5):
@@ -516,7 +516,7 @@ def test_progress_bar_on_a_terminal():
             return True
 
     stream = Terminal()
-    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    meter = D.Progress("auto", total=5, initial=1, stream=stream, every=0)
     assert meter.mode == "bar"
     meter.start()
     assert meter.bar is not None
