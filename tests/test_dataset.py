@@ -95,7 +95,7 @@ def test_generate_extend_and_plain_pyarrow(tmp_path):
 
     manifest = json.loads((out / D.MANIFEST).read_text())
     assert manifest["format"] == "prbdm-dataset" and manifest["count"] == 10
-    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH}
+    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH, "objective": "eigenvalue"}
     assert manifest["spec"]["seed"] == 7 and manifest["runs"][0]["fit_batch"] == 8
     assert {"python", "prbdm", "numpy", "pyarrow"} <= set(manifest["versions"])
     assert "git_commit" in manifest and len(manifest["runs"]) == 3
@@ -121,7 +121,7 @@ def test_refusals(tmp_path, capsys):
     assert main(["dataset", "generate", "--out", str(other), "--count", "1", *REAL]) == 2
     assert "not a prbdm data set" in capsys.readouterr().err
     # a folder being written by another run
-    with D._FolderLock(out):
+    with D.FolderLock(out):
         with pytest.raises(BadInput, match="another run"):
             D.generate(out, 4, D.make_spec(**SPEC), workers=0, labeller=fake_labeller,
                        progress="none")
@@ -216,12 +216,11 @@ def test_dask_local_cluster_same_records(tmp_path):
     manifest = D.read_manifest(tmp_path / "dask")
     assert manifest["runs"][0]["scheduler"].startswith("dask ")
     assert manifest["spec"]["fit_batch"] == D.DEFAULT_FIT_BATCH   # one chunk: a batched fit
-    got = D.read_table(tmp_path / "dask").to_pylist()
-    for rec in got:
-        ref = D.label_beam(rec["index"], spec)
-        assert rec["x"] == ref["x"]
-        assert np.allclose(rec["omega_truth"], ref["omega_truth"], rtol=1e-10, atol=0)
-        assert np.allclose(rec["gamma"], ref["gamma"], atol=2e-3)
+    got = D.read_table(tmp_path / "dask").drop(_TIMING).to_pylist()
+    # the same executor loop as a pool's: the chunk's labels, bit for bit
+    ref = D.label_beams([0, 1], {**spec, "fit_batch": D.DEFAULT_FIT_BATCH,
+                                 "objective": D.DEFAULT_OBJECTIVE})
+    assert got == [{k: v for k, v in r.items() if k not in _TIMING} for r in ref]
 
 
 def test_kill9_then_resume(tmp_path):
@@ -300,7 +299,7 @@ def test_chunked_labels_equal_per_beam_fits():
     for rec in together:
         ref = D.label_beam(rec["index"], spec)
         assert rec["status"] == ref["status"] == "ok", (rec["error"], ref["error"])
-        assert rec["fit_seed"] == ref["fit_seed"] == D._fit_seed(spec, rec["index"])
+        assert rec["fit_seed"] == ref["fit_seed"] == D.fit_seed(spec, rec["index"])
         assert rec["x"] == ref["x"] and rec["omega_truth"] == ref["omega_truth"]
         assert np.allclose(rec["gamma"], ref["gamma"], atol=1e-3)
         assert rec["loss_percent"] == pytest.approx(ref["loss_percent"], rel=1e-4)
@@ -360,7 +359,7 @@ def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
 
     out = tmp_path / "set"
     spec = D.make_spec(**SPEC, fit_batch=3)
-    real_write, writes = D._write_part, []
+    real_write, writes = D.storage.write_part, []
 
     def crashing_write(*a, **kw):           # the 5th part write never happens: a crash
         if len(writes) >= 4:
@@ -368,11 +367,11 @@ def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
         writes.append(a[2][0]["index"])
         return real_write(*a, **kw)
 
-    monkeypatch.setattr(D, "_write_part", crashing_write)
+    monkeypatch.setattr(D.storage, "write_part", crashing_write)
     with pytest.raises(_Crash):
         D.generate(out, 6, spec, workers=0, part_size=1, progress="none")
-    monkeypatch.setattr(D, "_write_part", real_write)
-    assert sorted(D._existing_indices(out).tolist()) == [0, 1, 2, 3]   # chunk [3, 6) partly
+    monkeypatch.setattr(D.storage, "write_part", real_write)
+    assert sorted(D.existing_indices(out).tolist()) == [0, 1, 2, 3]   # chunk [3, 6) partly
     before = {p.name: p.read_bytes() for p in D.part_files(out)}
 
     real_many, batches = prbdm.fit.fit_many, []
@@ -458,7 +457,7 @@ def test_unreachable_scheduler_leaves_manifest_unchanged(tmp_path, monkeypatch):
     out = tmp_path / "set"
     D.generate(out, 10, D.make_spec(**SPEC), workers=0, labeller=fake_labeller, progress="none")
     before = (out / D.MANIFEST).read_bytes()
-    monkeypatch.setattr(D, "CONNECT_TIMEOUT_S", 0.5)
+    monkeypatch.setattr(D.execute, "CONNECT_TIMEOUT_S", 0.5)
     with pytest.raises(BadInput, match="--scheduler: cannot connect"):
         D.generate(out, 20, D.make_spec(**SPEC), scheduler="tcp://127.0.0.1:1",
                    labeller=fake_labeller, progress="none")
@@ -486,7 +485,7 @@ def test_progress_log_lines_when_not_a_terminal(tmp_path):
     import io
 
     stream = io.StringIO()
-    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    meter = D.Progress("auto", total=5, initial=1, stream=stream, every=0)
     assert meter.mode == "log"
     meter.start()
     for i in range(1, 5):
@@ -516,7 +515,7 @@ def test_progress_bar_on_a_terminal():
             return True
 
     stream = Terminal()
-    meter = D._Progress("auto", total=5, initial=1, stream=stream, every=0)
+    meter = D.Progress("auto", total=5, initial=1, stream=stream, every=0)
     assert meter.mode == "bar"
     meter.start()
     assert meter.bar is not None
@@ -529,3 +528,110 @@ def test_progress_bar_on_a_terminal():
     assert "beam/s" in text                                             # and rate
     assert "errors=1" in text and "a message" in text
     assert "prbdm dataset: " not in text.replace("prbdm dataset: a message", "")  # no log lines
+
+
+# ---------------------------------------------------------------------- executors, objective, old sets
+
+#: columns that hold timings or the worker's name: they differ from run to run
+_TIMING = ["time_s", "cpu_s", "fit_time_s", "truth_time_s", "worker"]
+
+
+def test_inline_and_process_pool_give_bitwise_the_same_labels(tmp_path):
+    """The one executor loop, in this process and on a pool of 2 spawned workers: the same
+    records, bit for bit (timings aside), for real beams fitted in chunks."""
+    spec = D.make_spec(**SPEC, fit_batch=2)
+    a = D.generate(tmp_path / "inline", 4, spec, workers=0, progress="none")
+    b = D.generate(tmp_path / "pool", 4, spec, workers=2, part_size=1, progress="none")
+    assert (a["workers"], b["workers"]) == (1, 2) and a["new_errors"] == b["new_errors"] == 0
+    ta = D.read_table(tmp_path / "inline").drop(_TIMING)
+    tb = D.read_table(tmp_path / "pool").drop(_TIMING)
+    assert ta.num_rows == 4 and ta.equals(tb)
+    workers = set(D.read_table(tmp_path / "pool").column("worker").to_pylist())
+    assert f"{os.uname().nodename}:{os.getpid()}" not in workers       # labelled elsewhere
+
+
+def _raising_labeller(index, spec):
+    raise KeyError("lost")
+
+
+def test_a_task_that_raises_is_one_error_record_per_index():
+    backend = D.execute.open_backend(0)
+    records = list(D.execute.run_tasks(backend, [[0, 1], [2]], {}, _raising_labeller))
+    assert [r["index"] for r in records] == [0, 1, 2]
+    assert all(r["status"] == "error" and r["error"] == "worker: KeyError: 'lost'"
+               for r in records)
+
+
+def test_objective_is_recorded_and_used(tmp_path, capsys):
+    from prbdm.fit import fit_prbdm
+    from prbdm.objectives import OBJECTIVES
+
+    assert D.OBJECTIVES == OBJECTIVES
+    with pytest.raises(BadInput, match="--objective: must be one of eigenvalue, frequency"):
+        D.make_spec(**SPEC, objective="energy")
+    out = tmp_path / "set"
+    assert main(["dataset", "generate", "--out", str(out), "--count", "2", *REAL,
+                 "--objective", "frequency", "--workers", "0", "--progress", "none"]) == 0
+    assert D.read_manifest(out)["spec"]["objective"] == "frequency"
+    assert D.info(out)["objective"] == "frequency"
+    rec = D.read_table(out).to_pylist()[1]
+    # the record is the frequency fit of that beam, and holds both measures
+    beam, seed = D.beam_for(D.make_spec(**SPEC), 1), D.fit_seed(D.make_spec(**SPEC), 1)
+    ref = fit_prbdm(beam, rec["omega_truth"], joints=2, starts=4, seed=seed,
+                    objective="frequency")
+    assert rec["gamma"] == ref.gamma.tolist() and rec["loss_percent"] == ref.loss_percent
+    assert rec["frequency_percent"] == 100 * max(rec["freq_error_max"])
+    assert rec["frequency_percent"] == pytest.approx(100 * float(np.abs(ref.freq_error).max()))
+    eig = D.label_beam(1, D.make_spec(**SPEC))
+    assert eig["gamma"] != rec["gamma"]
+    assert rec["frequency_percent"] < eig["frequency_percent"]   # what each one minimises
+    assert rec["loss_percent"] > eig["loss_percent"]
+    # another objective on the set: exit 2, one line, nothing written
+    before = (out / D.MANIFEST).read_bytes()
+    assert main(["dataset", "generate", "--out", str(out), "--count", "3", *REAL,
+                 "--objective", "eigenvalue", "--progress", "none"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith("prbdm dataset: error: --objective:"), err
+    assert 'objective = "frequency"' in err and "leave --objective out" in err
+    assert (out / D.MANIFEST).read_bytes() == before
+    # leaving it out resumes with the set's objective
+    s = D.generate(out, 3, D.make_spec(**SPEC), workers=0, progress="none")
+    assert s["objective"] == "frequency" and s["new"] == 1
+
+
+def _labeller_with_frequency(index, spec):
+    return {**fake_labeller(index, spec), "frequency_percent": 1.0}
+
+
+def test_old_set_keeps_its_columns_and_objective(tmp_path, capsys):
+    """A set made before frequency_percent and --objective existed: resumed with its own
+    columns (every part one schema), its manifest spec as it was; another objective refused."""
+    import pyarrow as pa
+
+    out = tmp_path / "old"
+    spec = D.make_spec(**SPEC)
+    D.generate(out, 3, spec, workers=0, labeller=fake_labeller, progress="none")
+    manifest = json.loads((out / D.MANIFEST).read_text())
+    del manifest["spec"]["objective"]
+    del manifest["columns"]["frequency_percent"]
+    (out / D.MANIFEST).write_text(json.dumps(manifest))
+    for p in D.part_files(out):                      # the parts of an older prbdm
+        pq.write_table(pq.read_table(p).drop(["frequency_percent"]), p)
+    old_schema = pq.read_schema(D.part_files(out)[0])
+
+    s = D.generate(out, 6, spec, workers=0, labeller=_labeller_with_frequency, progress="none")
+    assert s["new"] == 3 and s["objective"] == "eigenvalue"
+    assert all(pq.read_schema(p).equals(old_schema) for p in D.part_files(out))
+    table = pq.read_table(out)
+    assert sorted(table.column("index").to_pylist()) == list(range(6))
+    assert "frequency_percent" not in table.column_names
+    kept = D.read_manifest(out)
+    assert kept["spec"] == manifest["spec"] and kept["columns"] == manifest["columns"]
+    assert D.info(out)["frequency_percent"] is None
+    assert main(["dataset", "generate", "--out", str(out), "--count", "7", *REAL,
+                 "--objective", "frequency", "--progress", "none"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--objective" in err and 'objective = "eigenvalue"' in err
+    assert D.generate(out, 7, {**spec, "objective": "eigenvalue"}, workers=0,
+                      labeller=fake_labeller, progress="none")["new"] == 1
+    assert isinstance(pa.concat_tables([pq.read_table(p) for p in D.part_files(out)]), pa.Table)

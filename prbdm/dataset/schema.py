@@ -1,0 +1,192 @@
+"""What decides a data set's records (the spec) and what a record holds (the columns).
+
+Imports neither torch nor scikit-fem: the parent process of a run checks the spec before any
+worker starts.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import BadInput
+from ..geometry import RANDOM_DEFAULTS, Material, random_beam
+
+MANIFEST = "_manifest.json"
+FORMAT = "prbdm-dataset"
+FORMAT_VERSION = 1
+TRUTH_MODELS = ("beam", "plate")
+LAWS = ("beam", "paper")
+#: what the fit minimises: the names of prbdm.objectives.OBJECTIVES (not imported, to keep torch
+#: out of the parent); a spec without ``objective`` (made before the choice existed) is
+#: ``eigenvalue``, the only objective there was
+OBJECTIVES = ("eigenvalue", "frequency")
+DEFAULT_OBJECTIVE = "eigenvalue"
+#: beams per batched fit (one task) for a new data set when --fit-batch is not given: measured
+#: best on 2 cores (benchmarks/bench_dataset.py); a set without ``fit_batch`` in its spec (made
+#: before chunking) is labelled one beam per task, as it was
+DEFAULT_FIT_BATCH = 8
+MAX_FIT_BATCH = 256
+#: default number of records per part file, and the longest a record waits in memory [s]
+PART_SIZE = 256
+FLUSH_S = 60.0
+#: fit multistart points when --starts is not given: prbdm.fit.DEFAULT_STARTS when this was
+#: written (not imported, to keep torch out of the parent); a spec records the number it used
+DEFAULT_STARTS = 64
+
+#: spec field -> the command-line flag that sets it (for error messages)
+FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "--truth",
+         "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
+         "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
+         "fit_batch": "--fit-batch", "objective": "--objective"}
+
+
+def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: str = "beam",
+              poses="paper", starts: int | None = None, seed: int = 0, p: int | None = None,
+              min_half_width: float | None = None, truth_modes: int | None = None,
+              material: Material | None = None, fit_batch: int | None = None,
+              objective: str | None = None) -> dict:
+    """The JSON-able description of a data set: everything that decides a record.
+
+    ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
+    with ``truth_modes = max(modes, joints) + 1`` modes (all stored). ``poses`` is ``"paper"``,
+    ``"linear"`` or a list of joint angles [rad]. ``starts=None`` means :data:`DEFAULT_STARTS`;
+    ``starts=0`` makes a *truth-only* set: geometry and truth frequencies, no fit (the fit columns
+    are null). That is all the surrogate's physics training needs, at about 1/100 of the cost.
+    ``fit_batch``: beams per batched fit; ``objective``: what the fit minimises (one of
+    :data:`OBJECTIVES`). For both, None (the key is then absent) means the folder's value for an
+    existing set (1 and ``eigenvalue`` if it has none) and :data:`DEFAULT_FIT_BATCH` and
+    :data:`DEFAULT_OBJECTIVE` for a new one.
+    """
+    def integer(name, v, lo):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            raise BadInput(f"{FLAGS.get(name, name)}: must be an integer >= {lo}, got {v!r}")
+        return int(v)
+
+    joints = integer("joints", joints, 1)
+    modes = joints if modes is None else integer("modes", modes, 1)
+    truth_modes = (max(modes, joints) + 1 if truth_modes is None
+                   else integer("truth_modes", truth_modes, max(modes, joints)))
+    if truth not in TRUTH_MODELS:
+        raise BadInput(f"--truth: must be one of {', '.join(TRUTH_MODELS)} for random beams, "
+                       f"got {truth!r}")
+    if law not in LAWS:
+        raise BadInput(f"--law: must be one of {', '.join(LAWS)}, got {law!r}")
+    if isinstance(poses, str):
+        if poses not in ("paper", "linear"):
+            raise BadInput(f"--poses: must be paper, linear or a list of angles, got {poses!r}")
+    else:
+        poses = [float(t) for t in poses]
+        if not poses or not all(math.isfinite(t) for t in poses):
+            raise BadInput("--poses: must be a non-empty list of finite angles [rad]")
+    starts = DEFAULT_STARTS if starts is None else integer("starts", starts, 0)
+    seed = integer("seed", seed, 0)
+    gen = dict(RANDOM_DEFAULTS)
+    if p is not None:
+        gen["p"] = integer("beam.p", p, 0)
+    if min_half_width is not None:
+        if not (isinstance(min_half_width, (int, float)) and
+                0 <= min_half_width < gen["max_half_width"]):
+            raise BadInput(f"--min-half-width: must lie in [0, {gen['max_half_width']}) m, "
+                           f"got {min_half_width!r}")
+        gen["min_half_width"] = float(min_half_width)
+    gen["material"] = (material or Material()).to_dict()
+    spec = {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
+            "joints": joints, "modes": modes, "law": law, "poses": poses, "starts": starts}
+    if fit_batch is not None:
+        spec["fit_batch"] = check_fit_batch(fit_batch)
+    if objective is not None:
+        spec["objective"] = check_objective(objective)
+    return spec
+
+
+def check_fit_batch(value) -> int:
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+            or not 1 <= value <= MAX_FIT_BATCH):
+        raise BadInput(f"--fit-batch: must be an integer in [1, {MAX_FIT_BATCH}], got {value!r}")
+    return int(value)
+
+
+def check_objective(value) -> str:
+    if value not in OBJECTIVES:
+        raise BadInput(f"--objective: must be one of {', '.join(OBJECTIVES)}, got {value!r}")
+    return value
+
+
+def flatten(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for key, value in d.items():
+        if isinstance(value, dict):
+            out.update(flatten(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+def spec_difference(old: dict, new: dict) -> str | None:
+    """The first field (dotted name) where two specs differ; None when equal."""
+    a, b = flatten(old), flatten(new)
+    for key in sorted(set(a) | set(b)):
+        if a.get(key, "<absent>") != b.get(key, "<absent>"):
+            return key
+    return None
+
+
+def beam_for(spec: dict, index: int):
+    """Beam ``index`` of a data set: a pure function of (spec seed, generator options, index)."""
+    gen = dict(spec["beam"])
+    material = Material(**gen.pop("material"))
+    return random_beam(spec["seed"], index, material=material, **gen)
+
+
+#: the record columns of a new set, in order: name -> (pyarrow type name, meaning). A set keeps
+#: the columns its manifest lists (``frequency_percent`` is absent from sets made before it)
+COLUMNS = {
+    "index": ("int64", "beam number; the beam is random_beam(seed, index, **spec.beam)"),
+    "status": ("string", "ok, or error (then `error` says which stage failed and why)"),
+    "error": ("string", "'stage: ExceptionType: message', null when ok"),
+    "x": ("list<double>", "planform stations [m], x[0] = 0, x[-1] = L"),
+    "half_width": ("list<double>", "half-width at each station [m]"),
+    "thickness": ("double", "uniform thickness [m]"),
+    "length": ("double", "L [m]"),
+    "mass": ("double", "beam mass [kg]"),
+    "omega_truth": ("list<double>", "truth bending frequencies, ascending [rad/s] (truth_modes)"),
+    "truth_time_s": ("double", "wall time of the truth solve [s]"),
+    "gamma": ("list<double>", "fitted link lengths / L (joints + 1), sum 1"),
+    "k": ("list<double>", "fitted stiffness correction factor per pose"),
+    "loss_percent": ("double", "the paper's loss of the fit, SPEC §3 [%], whatever objective "
+                     "was minimised"),
+    "gamma_spread": ("double", "spread of gamma among near-best starts (ambiguity of the label)"),
+    "n_near_best": ("int64", "starts within 1 % of the best loss"),
+    "freq_error_max": ("list<double>", "per mapped mode, worst relative frequency error of the "
+                       "poses"),
+    "frequency_percent": ("double", "worst per-mode frequency error of the fit over modes and "
+                          "poses, 100 max |omega / omega_T - 1| [%], whatever objective was "
+                          "minimised"),
+    "fit_time_s": ("double", "wall time of the fit [s]"),
+    "fit_seed": ("int64", "seed given to the fit's multistart"),
+    "time_s": ("double", "wall time to label the beam, all stages [s]"),
+    "cpu_s": ("double", "CPU time of the labelling thread [s]; 1 / cpu_s is the rate of a free "
+              "core"),
+    "worker": ("string", "host:pid that labelled it"),
+}
+
+
+def arrow_schema(names=None, metadata: dict | None = None):
+    """The pyarrow schema of the columns ``names`` (default: a new set's, :data:`COLUMNS`)."""
+    import pyarrow as pa
+
+    types = {"int64": pa.int64(), "string": pa.string(), "double": pa.float64(),
+             "list<double>": pa.list_(pa.float64())}
+    names = list(COLUMNS) if names is None else list(names)
+    unknown = [n for n in names if n not in COLUMNS]
+    if unknown:
+        raise BadInput(f"DIR: the manifest lists columns this prbdm does not know: {unknown}; "
+                       f"upgrade prbdm")
+    return pa.schema([pa.field(n, types[COLUMNS[n][0]]) for n in names], metadata=metadata)
+
+
+def manifest_columns(names=None) -> dict:
+    """The ``columns`` entry of a manifest: name -> {type, meaning}."""
+    names = list(COLUMNS) if names is None else names
+    return {k: {"type": COLUMNS[k][0], "meaning": COLUMNS[k][1]} for k in names}
