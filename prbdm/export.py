@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import BadInput
+from .signals import zero_crossing_period
 
 __all__ = ["FORMATS", "AXIS", "prbdm_from_fit", "run_fit", "load_fit", "to_mjcf", "to_urdf",
            "to_json", "export", "format_from_path", "plate_integrals", "URDF_NS",
@@ -62,6 +63,7 @@ def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", p
     prints: :meth:`prbdm.fit.FitResult.to_dict` plus ``truth`` and ``links``."""
     import torch
 
+    from .fingerprint import beam_fingerprint
     from .fit import fit_prbdm
     from .model import BeamTensors, links_from_gamma
     from .truth import bending_frequencies
@@ -76,6 +78,7 @@ def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", p
     out = res.to_dict()
     out["truth"] = {"model": tr.model, "time_s": tr.time_s}
     out["links"] = {key: v.tolist() for key, v in links.items()}
+    out["beam_fingerprint"] = beam_fingerprint(beam)
     return out
 
 
@@ -536,6 +539,4 @@ def mujoco_free_vibration(xml: str, amplitude: float = 1e-4, periods: float = 10
         mujoco.mj_step(model, data)
         y[s + 1] = (data.qpos - model.qpos_spring) @ w
     t = np.arange(steps + 1) * model.opt.timestep
-    from .simulate import zero_crossing_period
-
     return t, y, 2 * math.pi / zero_crossing_period(t, y), float(omega[mode])

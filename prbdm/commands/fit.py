@@ -73,6 +73,7 @@ def run(args) -> int:
     # one process, small batched problems: one thread is fastest (docs/choices.md, "Threads")
     torch.set_num_threads(1)
 
+    from ..fingerprint import beam_fingerprint
     from ..fit import fit_prbdm
     from ..model import BeamTensors, links_from_gamma
 
@@ -85,6 +86,7 @@ def run(args) -> int:
     out["truth"] = {"model": truth.model, "time_s": truth.time_s, "reason": reason}
     out["links"] = {key: v.tolist() for key, v in links.items()}
     out["warnings"] = warnings
+    out["beam_fingerprint"] = beam_fingerprint(beam)   # export/simulate --from check it
     if args.plot:
         from ..plots import plot_fit
 

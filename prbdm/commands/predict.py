@@ -65,6 +65,7 @@ def predict_one(sur, beam) -> dict:
     import warnings as _w
 
     from .. import surrogate
+    from ..fingerprint import beam_fingerprint
 
     with _w.catch_warnings():
         _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
@@ -86,6 +87,7 @@ def predict_one(sur, beam) -> dict:
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }
 
