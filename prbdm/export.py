@@ -124,7 +124,7 @@ def _numbers(value, name, ndim):
     return arr
 
 
-def _check_fit(fit: dict):
+def check_fit(fit: dict):
     """(gamma, k, law, poses) of a fit dictionary, validated; BadInput naming the key."""
     from .model import GAMMA_MAX, GAMMA_MIN, LAWS
 
@@ -163,26 +163,28 @@ def _check_fit(fit: dict):
 
 def _pick_pose(poses: np.ndarray, pose) -> int:
     """Index of the exported pose: None -> 0 (the first; the only one of a linear fit);
-    an integer index; or 'linear' -> the pose with every angle 0."""
+    an integer index; or 'linear' / 'rest' -> the pose with every angle 0 (here refused for a fit
+    without one: :func:`prbdm.preflight.prepare` refits such a fit at rest first)."""
     m = poses.shape[0]
     if pose is None:
         return 0
     if isinstance(pose, str):
         text = pose.strip()
-        if text == "linear":
+        if text in ("linear", "rest"):
             zero = np.flatnonzero(np.all(poses == 0.0, axis=1))
             if zero.size == 0:
-                raise BadInput("--pose: 'linear' needs a fit with the linear pose (theta = 0, "
+                raise BadInput(f"--pose: {text!r} needs a fit with the linear pose (theta = 0, "
                                "prbdm fit --poses linear); this fit's poses start at theta = "
                                f"{poses[0, 0]:g} rad")
             return int(zero[0])
         try:
             pose = int(text)
         except ValueError:
-            raise BadInput(f"--pose: must be a pose index in [0, {m - 1}] or 'linear', got "
-                           f"{text!r}") from None
+            raise BadInput(f"--pose: must be 'rest', 'linear' or a pose index in [0, {m - 1}], "
+                           f"got {text!r}") from None
     if isinstance(pose, bool) or not isinstance(pose, (int, np.integer)) or not 0 <= pose < m:
-        raise BadInput(f"--pose: must be a pose index in [0, {m - 1}] or 'linear', got {pose!r}")
+        raise BadInput(f"--pose: must be 'rest', 'linear' or a pose index in [0, {m - 1}], "
+                       f"got {pose!r}")
     return int(pose)
 
 
@@ -243,7 +245,7 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
 
     if not isinstance(beam, Beam):
         raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
-    gamma, k, law, poses = _check_fit(fit)
+    gamma, k, law, poses = check_fit(fit)
     i = _pick_pose(poses, pose)
     if springref not in ("pose", "zero"):
         raise BadInput(f"--springref: must be 'pose' or 'zero', got {springref!r}")

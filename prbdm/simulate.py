@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import BadInput
+from .preflight import DEFAULT_TOLERANCE
 from .signals import dominant_frequency, zero_crossing_period
 
 __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
@@ -268,17 +269,25 @@ def check_damping(damping) -> None:
                        f"a simulation compares oscillation periods), got {shown!r}")
 
 
-def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
+def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
-             truth_modes: int = 20, rtol: float = 1e-9) -> SimulationResult:
+             truth_modes: int = 20, rtol: float = 1e-9, tolerance: float = DEFAULT_TOLERANCE,
+             ignore_fingerprint: bool = False, check_beam: bool = True) -> SimulationResult:
     """Free response of the PRBDM of ``fit`` (see :func:`prbdm.export.prbdm_from_fit`; springs at
     rest straight, stiffness of pose ``pose``) and of the Euler-Bernoulli truth, from the same
     initial condition: ``tip_deflection`` [m] (default 1e-3 L) or ``tip_impulse`` [N s].
-    ``duration`` [s] (default ``periods`` first-mode periods of the truth)."""
+    ``duration`` [s] (default ``periods`` first-mode periods of the truth).
+
+    Before the run, :func:`prbdm.preflight.prepare` checks the result's ``beam_fingerprint``
+    (``check_beam``; BadInput for another beam unless ``ignore_fingerprint``) and, for
+    ``pose="rest"`` (default), refits a result made for deflected poses at theta = 0 against its
+    own truth (``info["refit"]``); the chain's small-vibration frequencies at the start are then
+    compared with the truth (``info["check"]``, a warning per mode beyond ``tolerance``)."""
     from scipy.integrate import solve_ivp
 
     from .export import prbdm_from_fit
+    from .preflight import check_frequencies, prepare, where_of
 
     t0 = time.perf_counter()
     L = beam.length
@@ -299,7 +308,14 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
             raise BadInput(f"--tip-deflection: must be non-zero with |D| <= 0.3 L = {0.3 * L:g} m, "
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
-    desc = prbdm_from_fit(beam, fit, pose=pose, springref="zero", damping=damping)
+    prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,
+                   check_beam=check_beam)
+    warnings += prep.warnings
+    fit = prep.fit
+    desc = prbdm_from_fit(beam, fit, pose=prep.pose, springref="zero", damping=damping)
+    check, bad = check_frequencies(desc["omega"], prep.truth, prep.modes, tolerance=tolerance,
+                                   truth_source=prep.truth_source, where=where_of(desc))
+    warnings += bad
     chain = ChainDynamics.from_description(desc)
     modes = beam_modes(beam, truth_modes)
     T1 = 2 * math.pi / modes.omega[0]
@@ -354,12 +370,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
             fit_err = None
     # the fit was made against its own truth solve: their first-mode difference is part of the
     # budget of the period comparison
-    truth_diff = None
-    if "omega_truth" in fit:
-        try:
-            truth_diff = float(abs(np.asarray(fit["omega_truth"], float)[0] / modes.omega[0] - 1))
-        except (IndexError, TypeError, ValueError):
-            truth_diff = None
+    truth_diff = float(abs(prep.truth[0] / modes.omega[0] - 1))
     amp = float(np.max(np.abs(tip_truth)))
     damped = math.sqrt(max(1 - damping ** 2, 1e-300))      # damped / undamped frequency
     info = {
@@ -388,6 +399,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
                   "truncation": float(1 - np.sum(modes.tip ** 2 / modes.omega ** 2)
                                       / modes.static_compliance)},
         "solver": {"method": "DOP853", "rtol": rtol, "nfev": int(sol.nfev), "time_s": ode_s},
+        "refit": prep.refit, "check": check, "beam_fingerprint": prep.fingerprint,
         "warnings": warnings,
         "time_s": time.perf_counter() - t0,
         "units": {"t": "s", "tip": "m (z of the tip)", "omega": "rad/s", "period": "s"},
