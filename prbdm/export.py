@@ -324,6 +324,21 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
     }
 
 
+def check_fit_links(beam, fit: dict) -> None:
+    """BadInput unless the ``links.joint_x`` a fit dict carries (as ``prbdm fit --json`` prints)
+    are this beam's cuts at its gamma: a FIT.json applied to a different panel."""
+    import torch
+
+    from .model import BeamTensors, links_from_gamma
+
+    gamma = check_fit(fit)[0]
+    bt = BeamTensors.from_beams(beam)
+    with torch.no_grad():
+        phys = {key: v.numpy() for key, v in
+                links_from_gamma(bt, torch.as_tensor(gamma)).physical(bt).items()}
+    _check_links_match(fit, phys)
+
+
 def _check_links_match(fit, phys):
     links = fit.get("links")
     if not isinstance(links, dict) or "joint_x" not in links:

@@ -170,7 +170,7 @@ def prepare(beam, fit: dict, pose="rest", *, ignore_fingerprint: bool = False,
     """Make ``fit`` ready for use at ``pose``: the fingerprint check (``check_beam``; off for a
     fit run here on this beam), its truth, and with ``pose="rest"`` the theta = 0 pose, refitted
     when the result has none. Other poses (an index, ``'linear'``) are passed on unchanged."""
-    from .export import check_fit
+    from .export import check_fit, check_fit_links
 
     if not isinstance(fit, dict):
         raise BadInput("fit: must be a dict with keys gamma, k, law, poses")
@@ -185,6 +185,7 @@ def prepare(beam, fit: dict, pose="rest", *, ignore_fingerprint: bool = False,
         # applied to another beam on purpose: its link table is that beam's, not this one's
         fit = {key: v for key, v in fit.items() if key != "links"}
     gamma, _, _, poses = check_fit(fit)
+    check_fit_links(beam, fit)        # before any refit, which replaces the links
     n = gamma.size - 1
     # a result made for another beam carries that beam's truth: check against this one's
     truth, source = fit_truth(beam, fit, own=fp["match"] is not False, modes=n)

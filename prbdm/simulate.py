@@ -190,7 +190,8 @@ class BeamModes:
 def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
     """The truth's Euler-Bernoulli model of ``beam`` (:mod:`prbdm.truth.beam`, SPEC §2) as SI
     modes for a modal superposition: the same solve as ``prbdm truth --model beam`` (``elements``
-    is its base mesh, default automatic), its mode shapes' tip values scaled to unit modal mass.
+    is its base mesh, default ``max(120, 12 modes)``), its mode shapes' tip values scaled to unit
+    modal mass.
 
     The truth returns nondimensional shapes ``w(xi)`` (largest value 1) with their modal mass
     ``m = int beta w^2 dxi`` (``beta = b / b_max``); the SI modal mass is ``rho t b_max L m``, so the
@@ -201,7 +202,10 @@ def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
 
     from .truth import bending_frequencies
 
-    res = bending_frequencies(beam, model="beam", modes=int(modes), elements=elements)
+    # finer than the truth's default base mesh (8 elements per mode): the superposition uses its
+    # highest modes too, and the period comparison resolves 1e-6 of the first
+    res = bending_frequencies(beam, model="beam", modes=int(modes),
+                              elements=elements or max(120, 12 * int(modes)))
     shapes = res.shapes
     L = beam.length
     xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)

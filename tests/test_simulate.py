@@ -187,7 +187,7 @@ def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     (["--duration", "-1"], "--duration"),
     (["--duration", "1000"], "--duration: at most 500"),
     (["--plot", "x.gif"], "--plot: file must end in"),
-    (["--pose", "2"], r"--pose: must be a pose index in \[0, 0\]"),
+    (["--pose", "2"], r"--pose: must be 'rest', 'linear' or a pose index in \[0, 0\]"),
     (["--damping", "2"], r"--damping: .*must lie in \[0, 1\).*got 2\.0"),
     (["--damping", "1"], r"--damping: .*must lie in \[0, 1\)"),
     (["--damping", "-0.1"], r"--damping"),
