@@ -12,7 +12,7 @@ integrated in time, three things are checked here (docs/export.md, "Checks befor
    that matters is the small-vibration one about theta = 0 (``pose="rest"``, the default). A
    result fitted for the paper's deflected poses has no theta = 0 pose, and its SCFs, fitted for
    deflected poses, give wrong small-vibration frequencies at rest (on a necked panel the first
-   mode 10-21 % high: docs/export.md). It is refitted at theta = 0 (gamma and one SCF, the
+   mode 11-25 % off: docs/export.md). It is refitted at theta = 0 (gamma and one SCF, the
    linear pose set) against its own truth frequencies (``omega_truth``, or a prediction's
    ``omega_truth_predicted``): no FEM, about a second; the caller reports it under ``refit``.
 3. **Its frequencies** (:func:`check_frequencies`): the small-vibration frequencies of the model
