@@ -79,10 +79,10 @@ def check_fingerprint(beam, fit: dict, *, ignore: bool = False, label: str = "--
     if info["match"]:
         return info, []
     if not ignore:
-        raise BadInput(f"{label}: the result was made for another beam (its beam_fingerprint "
+        raise BadInput(f"{label}: the result was made for a different beam (its beam_fingerprint "
                        f"{theirs}, this beam's {ours}); refit this beam, or pass "
                        "--ignore-fingerprint to apply it anyway")
-    return info, [f"{label}: the result was made for another beam (beam_fingerprint {theirs}, "
+    return info, [f"{label}: the result was made for a different beam (beam_fingerprint {theirs}, "
                   f"this beam's {ours}); applied anyway (--ignore-fingerprint), checked against "
                   "this beam's own truth"]
 

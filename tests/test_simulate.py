@@ -247,7 +247,7 @@ def test_simulate_refuses_a_result_for_another_beam(paper_fit):
     from prbdm.errors import BadInput
 
     other = Beam(x=TAPERED.x, half_width=[0.18, 0.12, 0.06], thickness=0.02)
-    with pytest.raises(BadInput, match="made for another beam"):
+    with pytest.raises(BadInput, match="made for a different beam"):
         simulate(other, paper_fit, periods=2)
     info = simulate(other, paper_fit, periods=2, ignore_fingerprint=True).info
     assert info["beam_fingerprint"]["match"] is False and info["check"]["ok"]
