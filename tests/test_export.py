@@ -346,13 +346,20 @@ def test_cli_export_refuses_a_missing_output_folder(run, files):
     (["-o", "x.xml"], "one of the arguments --joints/-n --from is required"),
     (["--from", "FIT", "--joints", "3", "-o", "x.xml"], "not allowed with"),
     (["--from", "FIT", "-o", "-", "--format", "json", "--json"], "cannot be combined"),
+    (["--from", "FIT", "-o", "x.xml", "--tolerance", "0"], "--tolerance"),
+    (["--from", "FIT", "-o", "x.xml", "--tolerance", "nan"], "--tolerance"),
+    (["--from", "FPBAD", "-o", "x.xml"], "beam_fingerprint must be a string"),
+    (["--from", "FPOTHER", "-o", "x.xml"], "made for a different beam .*0123456789abcdef"),
 ])
 def test_cli_export_bad_input(run, files, args, message):
     tmp, beam, fit = files
     (tmp / "bad.json").write_text("{not json")
     other = dict(FIT, links={"joint_x": [0.1, 0.2, 0.3]})
     (tmp / "other.json").write_text(json.dumps(other))
-    subst = {"FIT": fit, "BAD": str(tmp / "bad.json"), "OTHER": str(tmp / "other.json")}
+    (tmp / "fpbad.json").write_text(json.dumps(dict(FIT, beam_fingerprint=123)))
+    (tmp / "fpother.json").write_text(json.dumps(dict(FIT, beam_fingerprint="0123456789abcdef")))
+    subst = {"FIT": fit, "BAD": str(tmp / "bad.json"), "OTHER": str(tmp / "other.json"),
+             "FPBAD": str(tmp / "fpbad.json"), "FPOTHER": str(tmp / "fpother.json")}
     args = [subst.get(a, a) for a in args]
     args = [str(tmp / a) if a.startswith("x.") else a for a in args]
     rc, out, err = run("export", beam, *args)
