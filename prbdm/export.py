@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import BadInput
+from .signals import zero_crossing_period
 
 __all__ = ["FORMATS", "AXIS", "prbdm_from_fit", "run_fit", "load_fit", "to_mjcf", "to_urdf",
            "to_json", "export", "format_from_path", "plate_integrals", "URDF_NS",
@@ -62,6 +63,7 @@ def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", p
     prints: :meth:`prbdm.fit.FitResult.to_dict` plus ``truth`` and ``links``."""
     import torch
 
+    from .fingerprint import beam_fingerprint
     from .fit import fit_prbdm
     from .model import BeamTensors, links_from_gamma
     from .truth import bending_frequencies
@@ -76,6 +78,7 @@ def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", p
     out = res.to_dict()
     out["truth"] = {"model": tr.model, "time_s": tr.time_s}
     out["links"] = {key: v.tolist() for key, v in links.items()}
+    out["beam_fingerprint"] = beam_fingerprint(beam)
     return out
 
 
@@ -121,7 +124,7 @@ def _numbers(value, name, ndim):
     return arr
 
 
-def _check_fit(fit: dict):
+def check_fit(fit: dict):
     """(gamma, k, law, poses) of a fit dictionary, validated; BadInput naming the key."""
     from .model import GAMMA_MAX, GAMMA_MIN, LAWS
 
@@ -160,26 +163,28 @@ def _check_fit(fit: dict):
 
 def _pick_pose(poses: np.ndarray, pose) -> int:
     """Index of the exported pose: None -> 0 (the first; the only one of a linear fit);
-    an integer index; or 'linear' -> the pose with every angle 0."""
+    an integer index; or 'linear' / 'rest' -> the pose with every angle 0 (here refused for a fit
+    without one: :func:`prbdm.preflight.prepare` refits such a fit at rest first)."""
     m = poses.shape[0]
     if pose is None:
         return 0
     if isinstance(pose, str):
         text = pose.strip()
-        if text == "linear":
+        if text in ("linear", "rest"):
             zero = np.flatnonzero(np.all(poses == 0.0, axis=1))
             if zero.size == 0:
-                raise BadInput("--pose: 'linear' needs a fit with the linear pose (theta = 0, "
+                raise BadInput(f"--pose: {text!r} needs a fit with the linear pose (theta = 0, "
                                "prbdm fit --poses linear); this fit's poses start at theta = "
                                f"{poses[0, 0]:g} rad")
             return int(zero[0])
         try:
             pose = int(text)
         except ValueError:
-            raise BadInput(f"--pose: must be a pose index in [0, {m - 1}] or 'linear', got "
-                           f"{text!r}") from None
+            raise BadInput(f"--pose: must be 'rest', 'linear' or a pose index in [0, {m - 1}], "
+                           f"got {text!r}") from None
     if isinstance(pose, bool) or not isinstance(pose, (int, np.integer)) or not 0 <= pose < m:
-        raise BadInput(f"--pose: must be a pose index in [0, {m - 1}] or 'linear', got {pose!r}")
+        raise BadInput(f"--pose: must be 'rest', 'linear' or a pose index in [0, {m - 1}], "
+                       f"got {pose!r}")
     return int(pose)
 
 
@@ -240,7 +245,7 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
 
     if not isinstance(beam, Beam):
         raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
-    gamma, k, law, poses = _check_fit(fit)
+    gamma, k, law, poses = check_fit(fit)
     i = _pick_pose(poses, pose)
     if springref not in ("pose", "zero"):
         raise BadInput(f"--springref: must be 'pose' or 'zero', got {springref!r}")
@@ -317,6 +322,21 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
                   "stiffness": "N m/rad", "damping": "N m s/rad", "omega": "rad/s",
                   "freq_hz": "Hz"},
     }
+
+
+def check_fit_links(beam, fit: dict) -> None:
+    """BadInput unless the ``links.joint_x`` a fit dict carries (as ``prbdm fit --json`` prints)
+    are this beam's cuts at its gamma: a FIT.json applied to a different panel."""
+    import torch
+
+    from .model import BeamTensors, links_from_gamma
+
+    gamma = check_fit(fit)[0]
+    bt = BeamTensors.from_beams(beam)
+    with torch.no_grad():
+        phys = {key: v.numpy() for key, v in
+                links_from_gamma(bt, torch.as_tensor(gamma)).physical(bt).items()}
+    _check_links_match(fit, phys)
 
 
 def _check_links_match(fit, phys):
@@ -536,6 +556,4 @@ def mujoco_free_vibration(xml: str, amplitude: float = 1e-4, periods: float = 10
         mujoco.mj_step(model, data)
         y[s + 1] = (data.qpos - model.qpos_spring) @ w
     t = np.arange(steps + 1) * model.opt.timestep
-    from .simulate import zero_crossing_period
-
     return t, y, 2 * math.pi / zero_crossing_period(t, y), float(omega[mode])

@@ -23,10 +23,10 @@ Damping: a first-mode damping ratio ``zeta`` becomes stiffness-proportional damp
 (``zeta_r = zeta omega_r / omega_1``), so both have ratio zeta on their first mode.
 
 The truth (:func:`beam_modes`): the Euler-Bernoulli cantilever of SPEC §2 (``b = 2 w``,
-``I = b t^3/12``, ``A = b t``) discretised here by a small cubic-Hermite model (stations as
-nodes plus a uniform mesh, exact Gauss quadrature) that gives SI mode shapes normalised to unit
-modal mass; its frequencies agree with :mod:`prbdm.truth`'s beam model (tested). The tip motion is
-the modal superposition ``w(L, t) = sum_r phi_r(L) eta_r(t)`` of its lowest R modes (default 20).
+``I = b t^3/12``, ``A = b t``), solved by :mod:`prbdm.truth`'s beam model (the same solve as
+``prbdm truth`` and ``prbdm fit``), its mode shapes scaled to unit modal mass in SI. The tip
+motion is the modal superposition ``w(L, t) = sum_r phi_r(L) eta_r(t)`` of its lowest R modes
+(default 20).
 
 Initial conditions, the same for both: ``tip_deflection D`` releases the beam from rest in its
 static deflection under a tip force, scaled so the tip's z is D (PRBDM: the chain's linear static
@@ -43,6 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import BadInput
+from .preflight import DEFAULT_TOLERANCE
+from .signals import dominant_frequency, zero_crossing_period
 
 __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
            "SimulationResult", "dominant_frequency", "zero_crossing_period", "plot_simulation"]
@@ -186,70 +188,36 @@ class BeamModes:
 
 
 def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
-    """Cubic-Hermite Euler-Bernoulli model of ``beam`` (SPEC §2), SI units.
+    """The truth's Euler-Bernoulli model of ``beam`` (:mod:`prbdm.truth.beam`, SPEC §2) as SI
+    modes for a modal superposition: the same solve as ``prbdm truth --model beam`` (``elements``
+    is its base mesh, default ``max(120, 12 modes)``), its mode shapes' tip values scaled to unit
+    modal mass.
 
-    Mesh: every span between stations divided uniformly, ``elements`` in all (default
-    ``max(120, 12 modes)``). Quadrature: 4-point Gauss per element, exact (the width is linear
-    in an element). Sparse shift-invert Lanczos gives the mode shapes; each eigenvalue is then
-    recomputed as the Rayleigh quotient of its mode from the fields, ``int EI w''^2 /
-    int rho A w^2``, sums of positive terms: the matrix eigenvalues alone lose
-    ``eps * lambda_max / lambda_1`` (1e-6 here) to the stiffness matrix's conditioning. The
-    static tip compliance is the exact unit-load integral ``int (L - x)^2 / EI dx``.
+    The truth returns nondimensional shapes ``w(xi)`` (largest value 1) with their modal mass
+    ``m = int beta w^2 dxi`` (``beta = b / b_max``); the SI modal mass is ``rho t b_max L m``, so the
+    mass-normalised tip value is ``w(1) / sqrt(rho t b_max L m)``. The static tip compliance is
+    the exact unit-load integral ``int (L - x)^2 / EI dx``.
     """
-    import scipy.sparse as sp
     from scipy.integrate import quad
-    from scipy.sparse.linalg import eigsh
 
+    from .truth import bending_frequencies
+
+    # finer than the truth's default base mesh (8 elements per mode): the superposition uses its
+    # highest modes too, and the period comparison resolves 1e-6 of the first
+    res = bending_frequencies(beam, model="beam", modes=int(modes),
+                              elements=elements or max(120, 12 * int(modes)))
+    shapes = res.shapes
     L = beam.length
     xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)
-    ne = int(elements or max(120, 12 * int(modes)))
-    counts = np.maximum(1, np.round(ne * np.diff(xs) / L).astype(int))
-    nodes = np.concatenate([np.linspace(a, b, c + 1)[:-1] for a, b, c in
-                            zip(xs[:-1], xs[1:], counts)] + [[L]])
     E, rho, t = beam.material.E, beam.material.rho, beam.thickness
-    g, wg = np.polynomial.legendre.leggauss(4)
-    s = (g + 1) / 2
-    h = np.diff(nodes)[:, None]                                    # (ne, 1)
-    x = nodes[:-1, None] + h * s                                   # (ne, q)
-    bw = 2 * np.interp(x, xs, ws)
-    EIw = E * bw * t ** 3 / 12 * wg * h / 2                        # weighted at the points
-    rAw = rho * bw * t * wg * h / 2
-    one = np.ones_like(h)
-    H = np.stack([one - 3 * s**2 + 2 * s**3, h * (s - 2 * s**2 + s**3),
-                  one * (3 * s**2 - 2 * s**3), h * (-s**2 + s**3)], axis=1)      # (ne, 4, q)
-    H2 = np.stack([one * (-6 + 12 * s), h * (-4 + 6 * s), one * (6 - 12 * s),
-                   h * (-2 + 6 * s)], axis=1) / h[:, :, None] ** 2
-    Ke = np.einsum("eiq,eq,ejq->eij", H2, EIw, H2)
-    Me = np.einsum("eiq,eq,ejq->eij", H, rAw, H)
-    nd = 2 * nodes.size
-    dofs = 2 * np.arange(nodes.size - 1)[:, None] + np.arange(4)  # (ne, 4)
-    rows = np.broadcast_to(dofs[:, :, None], Ke.shape).ravel()
-    cols = np.broadcast_to(dofs[:, None, :], Ke.shape).ravel()
-    K = sp.csc_matrix((Ke.ravel(), (rows, cols)), shape=(nd, nd))[2:, 2:]   # clamp: w = w' = 0
-    M = sp.csc_matrix((Me.ravel(), (rows, cols)), shape=(nd, nd))[2:, 2:]
-    R = min(int(modes), K.shape[0] - 2)
-    D = sp.diags(1 / np.sqrt(K.diagonal()))                        # unit diagonal of K
-    # sparse shift-invert Lanczos (banded LU, no multithreaded dense BLAS), fixed start vector
-    _, vec = eigsh((D @ K @ D).tocsc(), k=R, M=(D @ M @ D).tocsc(), sigma=0.0, which="LM",
-                   v0=np.ones(K.shape[0]))
-    vec = D @ vec
-    phi = np.zeros((nd, R))
-    phi[2:] = vec
-    coef = phi[dofs]                                               # (ne, 4, R)
-    curv = np.einsum("eiq,eir->eqr", H2, coef)
-    val = np.einsum("eiq,eir->eqr", H, coef)
-    stiff = np.einsum("eq,eqr->r", EIw, curv ** 2)
-    modal_mass = np.einsum("eq,eqr->r", rAw, val ** 2)
-    lam = stiff / modal_mass
-    order = np.argsort(lam)
-    lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
-    tip = phi[-2] / np.sqrt(modal_mass)                           # unit modal mass
+    mass_si = rho * t * 2 * ws.max() * L * np.asarray(shapes["modal_mass"], float)
+    tip = np.asarray(shapes["w"], float)[:, -1] / np.sqrt(mass_si)     # unit modal mass
     compliance = 0.0
     for a, b in zip(xs[:-1], xs[1:]):
         compliance += quad(lambda x: (L - x) ** 2 * 12 / (E * 2 * np.interp(x, xs, ws) * t ** 3),
                            a, b, epsabs=0, epsrel=1e-13, limit=200)[0]
-    return BeamModes(omega=np.sqrt(lam), tip=tip, static_compliance=float(compliance),
-                     elements=int(nodes.size - 1))
+    return BeamModes(omega=np.asarray(res.omega, float), tip=tip,
+                     static_compliance=float(compliance), elements=int(res.mesh["elements"]))
 
 
 def _sdof(t, omega, zeta, x0, v0):
@@ -273,56 +241,6 @@ def modal_tip_response(modes: BeamModes, t, *, tip_deflection=None, tip_impulse=
         F = tip_deflection / modes.static_compliance   # the exact static shape of the model
         x0, v0 = F * phi / w ** 2, np.zeros_like(w)
     return _sdof(np.asarray(t, float), w, zeta, x0, v0) @ phi
-
-
-# ----------------------------------------------------------------------------- measurements
-def zero_crossing_period(t, y) -> float:
-    """Mean period between upward zero crossings (linear interpolation); nan if fewer than 2."""
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    up = np.flatnonzero((y[:-1] < 0) & (y[1:] >= 0))
-    if up.size < 2:
-        return math.nan
-    tc = t[up] - y[up] * (t[up + 1] - t[up]) / (y[up + 1] - y[up])
-    return float((tc[-1] - tc[0]) / (up.size - 1))
-
-
-def dominant_frequency(t, y, guess: float, span: float = 0.3) -> float:
-    """Frequency [rad/s] of the strongest sinusoid in ``y`` within ``guess * (1 +- span)``.
-
-    For each trial frequency, a Hann-weighted least-squares fit of ``a cos(w t) + b sin(w t)``;
-    the frequency that explains most of the signal is located by the peak of the zero-padded FFT
-    and refined by Brent's method. Unlike a Fourier peak, the fit is exact for a pure sinusoid
-    however few periods are recorded (no bias from the negative-frequency image); the window
-    keeps modes several times faster from leaking in. Samples uniform in t.
-    """
-    from scipy.optimize import minimize_scalar
-
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    W = np.hanning(t.size + 2)[1:-1]
-    tc = t - (t[0] + t[-1]) / 2
-    yw = W * (y - np.average(y, weights=W))
-
-    def neg_fit(w):
-        c, s = np.cos(w * tc), np.sin(w * tc)
-        G = np.array([[np.sum(W * c * c), np.sum(W * c * s)], [0.0, np.sum(W * s * s)]])
-        G[1, 0] = G[0, 1]
-        r = np.array([yw @ c, yw @ s])
-        return -float(r @ np.linalg.solve(G, r))
-
-    # coarse: the peak of the zero-padded Fourier amplitude within the span
-    pad = 8 * t.size
-    dt = (t[-1] - t[0]) / (t.size - 1)
-    freqs = 2 * np.pi * np.fft.rfftfreq(pad, dt)
-    amp = np.abs(np.fft.rfft(yw, pad))
-    inside = np.flatnonzero((freqs >= guess * (1 - span)) & (freqs <= guess * (1 + span)))
-    if inside.size == 0:
-        raise ValueError("dominant_frequency: the record is too short for this span")
-    k = inside[np.argmax(amp[inside])]
-    step = freqs[1]
-    # fine: the best least-squares sinusoid within half a bin of the record either side
-    res = minimize_scalar(neg_fit, bounds=(max(freqs[k] - 4 * step, step), freqs[k] + 4 * step),
-                          method="bounded", options={"xatol": guess * 1e-12})
-    return float(res.x)
 
 
 # ----------------------------------------------------------------------------- simulate
@@ -355,17 +273,25 @@ def check_damping(damping) -> None:
                        f"a simulation compares oscillation periods), got {shown!r}")
 
 
-def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
+def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
-             truth_modes: int = 20, rtol: float = 1e-9) -> SimulationResult:
+             truth_modes: int = 20, rtol: float = 1e-9, tolerance: float = DEFAULT_TOLERANCE,
+             ignore_fingerprint: bool = False, check_beam: bool = True) -> SimulationResult:
     """Free response of the PRBDM of ``fit`` (see :func:`prbdm.export.prbdm_from_fit`; springs at
     rest straight, stiffness of pose ``pose``) and of the Euler-Bernoulli truth, from the same
     initial condition: ``tip_deflection`` [m] (default 1e-3 L) or ``tip_impulse`` [N s].
-    ``duration`` [s] (default ``periods`` first-mode periods of the truth)."""
+    ``duration`` [s] (default ``periods`` first-mode periods of the truth).
+
+    Before the run, :func:`prbdm.preflight.prepare` checks the result's ``beam_fingerprint``
+    (``check_beam``; BadInput for another beam unless ``ignore_fingerprint``) and, for
+    ``pose="rest"`` (default), refits a result made for deflected poses at theta = 0 against its
+    own truth (``info["refit"]``); the chain's small-vibration frequencies at the start are then
+    compared with the truth (``info["check"]``, a warning per mode beyond ``tolerance``)."""
     from scipy.integrate import solve_ivp
 
     from .export import prbdm_from_fit
+    from .preflight import check_frequencies, prepare, where_of
 
     t0 = time.perf_counter()
     L = beam.length
@@ -386,7 +312,14 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
             raise BadInput(f"--tip-deflection: must be non-zero with |D| <= 0.3 L = {0.3 * L:g} m, "
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
-    desc = prbdm_from_fit(beam, fit, pose=pose, springref="zero", damping=damping)
+    prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,
+                   check_beam=check_beam)
+    warnings += prep.warnings
+    fit = prep.fit
+    desc = prbdm_from_fit(beam, fit, pose=prep.pose, springref="zero", damping=damping)
+    check, bad = check_frequencies(desc["omega"], prep.truth, prep.modes, tolerance=tolerance,
+                                   truth_source=prep.truth_source, where=where_of(desc))
+    warnings += bad
     chain = ChainDynamics.from_description(desc)
     modes = beam_modes(beam, truth_modes)
     T1 = 2 * math.pi / modes.omega[0]
@@ -441,12 +374,7 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
             fit_err = None
     # the fit was made against its own truth solve: their first-mode difference is part of the
     # budget of the period comparison
-    truth_diff = None
-    if "omega_truth" in fit:
-        try:
-            truth_diff = float(abs(np.asarray(fit["omega_truth"], float)[0] / modes.omega[0] - 1))
-        except (IndexError, TypeError, ValueError):
-            truth_diff = None
+    truth_diff = float(abs(prep.truth[0] / modes.omega[0] - 1))
     amp = float(np.max(np.abs(tip_truth)))
     damped = math.sqrt(max(1 - damping ** 2, 1e-300))      # damped / undamped frequency
     info = {
@@ -469,12 +397,13 @@ def simulate(beam, fit: dict, *, pose=None, tip_deflection: float | None = None,
         "energy_drift": (abs(chain.energy(theta[-1], sol.y[n:, -1])
                              - chain.energy(y0[:n], y0[n:])) / chain.energy(y0[:n], y0[n:])
                          if damping == 0 else None),
-        "truth": {"model": "Euler-Bernoulli modal superposition (cubic Hermite, "
-                           "prbdm.simulate.beam_modes)",
+        "truth": {"model": "Euler-Bernoulli modal superposition (prbdm.truth's beam "
+                           "model, prbdm.simulate.beam_modes)",
                   "modes": int(modes.omega.size), "elements": modes.elements,
                   "truncation": float(1 - np.sum(modes.tip ** 2 / modes.omega ** 2)
                                       / modes.static_compliance)},
         "solver": {"method": "DOP853", "rtol": rtol, "nfev": int(sol.nfev), "time_s": ode_s},
+        "refit": prep.refit, "check": check, "beam_fingerprint": prep.fingerprint,
         "warnings": warnings,
         "time_s": time.perf_counter() - t0,
         "units": {"t": "s", "tip": "m (z of the tip)", "omega": "rad/s", "period": "s"},

@@ -238,7 +238,8 @@ def test_predict_output_exports(capsys, beam_file, tmp_path):
         pass
     else:
         xml = tmp_path / "panel.xml"
-        rc, out, err = run(capsys, "export", beam_file(), "--from", pred_file, "-o", xml)
+        rc, out, err = run(capsys, "export", beam_file(), "--from", pred_file, "-o", xml,
+                           "--pose", 0)        # the network's own pose 0 (default: refit at rest)
         assert rc == 0, err
         omega, _ = mujoco_linear_frequencies(xml.read_text())
         np.testing.assert_allclose(omega, p["omega"][0], rtol=1e-6)

@@ -117,7 +117,7 @@ def test_pose_selection():
     assert prbdm_from_fit(TAPERED, LINEAR_FIT, pose="linear")["pose"]["theta"] == [0, 0, 0]
     with pytest.raises(BadInput, match="--pose: 'linear' needs"):
         prbdm_from_fit(TAPERED, FIT, pose="linear")
-    with pytest.raises(BadInput, match=r"--pose: must be a pose index in \[0, 8\]"):
+    with pytest.raises(BadInput, match=r"--pose: must be 'rest', 'linear' or a pose index in \[0, 8\]"):
         prbdm_from_fit(TAPERED, FIT, pose=9)
 
 
@@ -268,7 +268,8 @@ def files(tmp_path):
 def test_cli_export_every_format(run, files):
     tmp, beam, fit = files
     for name, fmt in (("m.xml", "mjcf"), ("m.urdf", "urdf"), ("m.json", "json")):
-        rc, out, err = run("export", beam, "--from", fit, "-o", tmp / name, "--json")
+        rc, out, err = run("export", beam, "--from", fit, "-o", tmp / name, "--json",
+                           "--pose", 0)
         assert rc == 0, err
         rep = json.loads(out)
         assert rep["format"] == fmt and rep["pose"]["index"] == 0
@@ -334,7 +335,7 @@ def test_cli_export_refuses_a_missing_output_folder(run, files):
 
 @pytest.mark.parametrize("args, message", [
     (["--from", "FIT", "-o", "x.txt"], "--format: not given"),
-    (["--from", "FIT", "-o", "x.xml", "--pose", "9"], "--pose: must be a pose index"),
+    (["--from", "FIT", "-o", "x.xml", "--pose", "9"], "--pose: must be 'rest', 'linear' or a pose index"),
     (["--from", "FIT", "-o", "x.xml", "--pose", "linear"], "--pose: 'linear' needs"),
     (["--from", "FIT", "-o", "x.xml", "--law", "paper"], "--law: a fit option"),
     (["--from", "nofile.json", "-o", "x.xml"], "--from: no such file"),
@@ -345,13 +346,20 @@ def test_cli_export_refuses_a_missing_output_folder(run, files):
     (["-o", "x.xml"], "one of the arguments --joints/-n --from is required"),
     (["--from", "FIT", "--joints", "3", "-o", "x.xml"], "not allowed with"),
     (["--from", "FIT", "-o", "-", "--format", "json", "--json"], "cannot be combined"),
+    (["--from", "FIT", "-o", "x.xml", "--tolerance", "0"], "--tolerance"),
+    (["--from", "FIT", "-o", "x.xml", "--tolerance", "nan"], "--tolerance"),
+    (["--from", "FPBAD", "-o", "x.xml"], "beam_fingerprint must be a string"),
+    (["--from", "FPOTHER", "-o", "x.xml"], "made for a different beam .*0123456789abcdef"),
 ])
 def test_cli_export_bad_input(run, files, args, message):
     tmp, beam, fit = files
     (tmp / "bad.json").write_text("{not json")
     other = dict(FIT, links={"joint_x": [0.1, 0.2, 0.3]})
     (tmp / "other.json").write_text(json.dumps(other))
-    subst = {"FIT": fit, "BAD": str(tmp / "bad.json"), "OTHER": str(tmp / "other.json")}
+    (tmp / "fpbad.json").write_text(json.dumps(dict(FIT, beam_fingerprint=123)))
+    (tmp / "fpother.json").write_text(json.dumps(dict(FIT, beam_fingerprint="0123456789abcdef")))
+    subst = {"FIT": fit, "BAD": str(tmp / "bad.json"), "OTHER": str(tmp / "other.json"),
+             "FPBAD": str(tmp / "fpbad.json"), "FPOTHER": str(tmp / "fpother.json")}
     args = [subst.get(a, a) for a in args]
     args = [str(tmp / a) if a.startswith("x.") else a for a in args]
     rc, out, err = run("export", beam, *args)
@@ -360,3 +368,116 @@ def test_cli_export_bad_input(run, files, args, message):
     import re
     assert re.search(message, err), err
     assert not any(p.name.startswith("x.") for p in tmp.iterdir())
+
+
+# ----------------------------------------------------------------------------- checks before use
+@pytest.fixture(scope="module")
+def paper_fit():
+    """A 3R fit of TAPERED for the paper's poses (none at theta = 0), as prbdm fit --json."""
+    from prbdm.export import run_fit
+
+    return run_fit(TAPERED, 3, starts=8)
+
+
+@pytest.fixture
+def paper_files(tmp_path, paper_fit):
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps(paper_fit))
+    return tmp_path, str(beam), str(fit)
+
+
+def test_cli_export_refits_a_paper_pose_fit_at_rest_without_fem(run, paper_files, paper_fit,
+                                                               monkeypatch):
+    import prbdm.truth
+
+    tmp, beam, fit = paper_files
+    # the refit uses the result's own omega_truth: any truth solve here would be a bug
+    monkeypatch.setattr(prbdm.truth, "bending_frequencies",
+                        lambda *a, **k: pytest.fail("a truth solve ran during export"))
+    rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.json", "--json")
+    assert rc == 0, err
+    rep = json.loads(out)
+    assert rep["pose"]["theta"] == [0, 0, 0] and rep["pose"]["springref"] == "pose"
+    refit = rep["refit"]
+    assert refit["truth"] == "omega_truth" and refit["poses_given"] == paper_fit["poses"]
+    assert refit["gamma"] != paper_fit["gamma"] and len(refit["k"]) == 1
+    # 3 modes, 4 parameters: the small-vibration model matches the truth
+    assert rep["check"]["ok"] and rep["check"]["modes"] == 3
+    assert rep["check"]["max_error"] < 1e-6
+    assert np.asarray(rep["omega"]) == pytest.approx(paper_fit["omega_truth"][:3], rel=1e-6)
+    assert rep["warnings"] == [] and err == ""
+    assert rep["beam_fingerprint"]["match"] is True
+    desc = json.loads((tmp / "m.json").read_text())
+    assert desc["gamma"] == pytest.approx(refit["gamma"], rel=1e-12)
+
+
+def test_cli_export_warns_when_the_exported_model_is_off(run, paper_files, paper_fit):
+    tmp, beam, fit = paper_files
+    # pose 0's SCF at rest straight: the paper fit's stiffness for a deflected pose
+    rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.xml", "--json",
+                       "--pose", 0, "--springref", "zero")
+    assert rc == 0, err
+    rep = json.loads(out)
+    desc = prbdm_from_fit(TAPERED, paper_fit, pose=0, springref="zero")
+    expected = np.asarray(desc["omega"][:3]) / np.asarray(paper_fit["omega_truth"][:3]) - 1
+    assert rep["refit"] is None and not rep["check"]["ok"]
+    assert rep["check"]["error"] == pytest.approx(expected, rel=1e-12)
+    bad = [j + 1 for j, e in enumerate(expected) if abs(e) > 0.05]
+    assert bad and len(rep["warnings"]) == len(bad)
+    for j, w in zip(bad, rep["warnings"]):
+        assert w.startswith(f"mode {j}:") and f"{100 * abs(expected[j - 1]):.3g} %" in w
+        assert "--poses linear" in w and "--objective frequency" in w
+        assert w in err                                # on stderr as well
+    # a looser tolerance silences it; the check is still reported
+    rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.xml", "--json",
+                       "--pose", 0, "--springref", "zero", "--tolerance", 100)
+    rep = json.loads(out)
+    assert rc == 0 and rep["warnings"] == [] and rep["check"]["ok"]
+    assert rep["check"]["tolerance"] == 1.0
+    # the pose's own model (springs at rest at the pose) is checked about that pose
+    rc, out, err = run("export", beam, "--from", fit, "-o", tmp / "m.xml", "--json",
+                       "--pose", 0)
+    rep = json.loads(out)
+    ref = np.asarray(paper_fit["freq_error"][0])
+    assert np.abs(rep["check"]["error"]) == pytest.approx(ref, rel=1e-6, abs=1e-12)
+
+
+def test_cli_export_refuses_a_result_for_another_beam(run, paper_files, paper_fit):
+    from prbdm.fingerprint import beam_fingerprint
+
+    tmp, beam, fit = paper_files
+    other = Beam(x=TAPERED.x, half_width=TAPERED.half_width, thickness=0.021)
+    (tmp / "other.json").write_text(other.to_json())
+    rc, out, err = run("export", str(tmp / "other.json"), "--from", fit, "-o", tmp / "x.xml")
+    ours, theirs = beam_fingerprint(other), paper_fit["beam_fingerprint"]
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert ours in err and theirs in err and "--ignore-fingerprint" in err
+    assert not (tmp / "x.xml").exists()
+    # told to, it applies the result, checked against the other beam's own truth
+    rc, out, err = run("export", str(tmp / "other.json"), "--from", fit, "-o", tmp / "x.xml",
+                       "--json", "--ignore-fingerprint")
+    assert rc == 0, err
+    rep = json.loads(out)
+    assert rep["beam_fingerprint"] == {"beam": ours, "result": theirs, "match": False,
+                                       "ignored": True}
+    assert rep["refit"]["truth"].startswith("beam (Euler-Bernoulli FEM")
+    assert any("a different beam" in w for w in rep["warnings"])
+    # a result without a fingerprint is used, with a warning
+    (tmp / "old.json").write_text(json.dumps({k: v for k, v in paper_fit.items()
+                                              if k != "beam_fingerprint"}))
+    rc, out, err = run("export", beam, "--from", tmp / "old.json", "-o", tmp / "y.xml", "--json")
+    assert rc == 0 and "carries no beam_fingerprint" in err
+    assert json.loads(out)["beam_fingerprint"]["match"] is None
+
+
+def test_cli_export_with_joints_fits_the_linear_pose_by_default(run, files):
+    tmp, beam, _ = files
+    rc, out, err = run("export", beam, "--joints", 2, "--starts", 4, "-o", tmp / "p.json",
+                       "--json")
+    assert rc == 0, err
+    rep = json.loads(out)
+    assert rep["refit"] is None and rep["pose"]["theta"] == [0, 0]
+    assert json.loads((tmp / "p.json").read_text())["pose"]["poses"] == [[0, 0]]
+    assert rep["check"]["ok"] and rep["warnings"] == []

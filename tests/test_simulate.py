@@ -81,11 +81,20 @@ def test_beam_modes_against_the_analytic_uniform_beam():
     assert m.static_compliance == pytest.approx(L ** 3 / (3 * EI), rel=1e-12)
 
 
-def test_beam_modes_against_prbdm_truth():
+def test_beam_modes_are_the_truths_beam_model_with_unit_modal_mass():
     from prbdm.truth import bending_frequencies
 
-    ref = bending_frequencies(TAPERED, "beam", 4, elements=800).omega
-    assert beam_modes(TAPERED, 4).omega == pytest.approx(ref, rel=1e-7)
+    # the same solve as prbdm.truth's beam model (no second FEM): bit for bit on the same mesh
+    ref = bending_frequencies(TAPERED, "beam", 4, elements=120).omega
+    assert np.array_equal(beam_modes(TAPERED, 4).omega, ref)
+    # unit modal mass, checked against an independent number: the complete modal sum
+    # sum_r phi_r(L)^2 / omega_r^2 is the static tip compliance int (L - x)^2 / EI dx (quad);
+    # truncated at R modes it falls short by a remainder that shrinks with R
+    short = []
+    for R in (10, 20, 40):
+        m = beam_modes(TAPERED, R)
+        short.append(1 - np.sum(m.tip ** 2 / m.omega ** 2) / m.static_compliance)
+    assert 0 < short[2] < short[1] < short[0] < 1e-3
 
 
 def test_measurements_on_a_known_signal():
@@ -187,7 +196,7 @@ def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     (["--duration", "-1"], "--duration"),
     (["--duration", "1000"], "--duration: at most 500"),
     (["--plot", "x.gif"], "--plot: file must end in"),
-    (["--pose", "2"], r"--pose: must be a pose index in \[0, 0\]"),
+    (["--pose", "2"], r"--pose: must be 'rest', 'linear' or a pose index in \[0, 0\]"),
     (["--damping", "2"], r"--damping: .*must lie in \[0, 1\).*got 2\.0"),
     (["--damping", "1"], r"--damping: .*must lie in \[0, 1\)"),
     (["--damping", "-0.1"], r"--damping"),
@@ -202,3 +211,59 @@ def test_cli_simulate_bad_input(run, tmp_path, args, message):
     rc, out, err = run("simulate", beam, "--from", fit, *args)
     assert rc == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
     assert re.search(message, err), err
+
+
+# ----------------------------------------------------------------------------- checks before use
+@pytest.fixture(scope="module")
+def paper_fit():
+    """A 3R fit of TAPERED for the paper's poses (none at theta = 0)."""
+    return run_fit(TAPERED, 3, starts=8)
+
+
+def test_simulate_refits_a_paper_pose_fit_at_rest(paper_fit):
+    res = simulate(TAPERED, paper_fit, periods=5)
+    info = res.info
+    assert info["refit"] is not None and info["refit"]["truth"] == "omega_truth"
+    assert info["pose_theta"] == [0, 0, 0]
+    assert info["check"]["ok"] and info["check"]["max_error"] < 1e-6
+    assert info["fit_freq_error_mode1"] < 1e-6          # the refit's, not the paper fit's
+    assert info["period_error"] < 1e-5
+    assert info["warnings"] == [] and info["beam_fingerprint"]["match"] is True
+
+
+def test_simulate_warns_about_a_deflected_pose_model_and_its_period_shows_it(paper_fit):
+    res = simulate(TAPERED, paper_fit, pose=0, periods=5)
+    info = res.info
+    check = info["check"]
+    assert info["refit"] is None and not check["ok"] and check["worst_mode"] == 1
+    err1 = check["error"][0]
+    assert abs(err1) > 0.05
+    assert info["warnings"][0].startswith("mode 1:") and "--poses linear" in info["warnings"][0]
+    # what the check predicted is what the simulation measures: T ~ 1 / omega
+    assert info["period_error"] == pytest.approx(abs(1 / (1 + err1) - 1), rel=1e-3)
+
+
+def test_simulate_refuses_a_result_for_another_beam(paper_fit):
+    from prbdm.errors import BadInput
+
+    other = Beam(x=TAPERED.x, half_width=[0.18, 0.12, 0.06], thickness=0.02)
+    with pytest.raises(BadInput, match="made for a different beam"):
+        simulate(other, paper_fit, periods=2)
+    info = simulate(other, paper_fit, periods=2, ignore_fingerprint=True).info
+    assert info["beam_fingerprint"]["match"] is False and info["check"]["ok"]
+
+
+def test_cli_simulate_from_a_paper_fit_json(run, tmp_path, paper_fit):
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps(paper_fit))
+    T1 = 2 * math.pi / paper_fit["omega_truth"][0]
+    rc, out, err = run("simulate", beam, "--from", fit, "--duration", 4 * T1)
+    assert rc == 0 and err == "", err
+    assert "refitted at theta = 0" in out and "(within 5 %)" in out
+    rc, out, err = run("simulate", beam, "--from", fit, "--duration", 4 * T1, "--pose", 0,
+                       "--json")
+    rep = json.loads(out)
+    assert rc == 0 and not rep["check"]["ok"] and "warning: mode 1:" in err
+    assert rep["warnings"] and all(w in err for w in rep["warnings"])

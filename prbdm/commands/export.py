@@ -5,15 +5,26 @@ Writes a PRBDM for a user's simulator (:mod:`prbdm.export`, docs/export.md): MuJ
 plain JSON of the physical parameters. The PRBDM comes from ``--from FIT.json`` (what
 ``prbdm fit --json`` prints) or from a fit run here (``--joints N``, with the fit's options).
 
-``--pose`` picks the pose whose SCF the springs use (default: the first pose; a linear fit has
-only the theta = 0 pose); ``--springref pose`` (default) sets the springs' rest angles to that
-pose, so the exported chain at rest is the PRBDM at that pose and vibrates with its frequencies;
-``--springref zero`` rests it straight. The file is written atomically.
+``--pose`` picks the pose whose SCF the springs use: ``rest`` (default) the small-vibration
+model about theta = 0 -- a result fitted for the paper's deflected poses is first refitted at
+theta = 0 against its own truth frequencies (:mod:`prbdm.preflight`, no FEM, about a second);
+an index, or ``linear`` (the theta = 0 pose of a result that has one). ``--springref pose``
+(default) sets the springs' rest angles to that pose, so the exported chain at rest is the PRBDM
+at that pose and vibrates with its frequencies; ``--springref zero`` rests it straight. With
+``--joints`` the fit run here uses the linear pose set by default. Before the file is written the
+model's small-vibration frequencies about its spring reference are compared with the truth (the
+result's ``omega_truth``, or a prediction's ``omega_truth_predicted``): beyond ``--tolerance``
+(default 5 %) a warning names the mode, the error and the remedy. ``--from`` a result whose
+``beam_fingerprint`` is not the beam's is refused (exit 2) unless ``--ignore-fingerprint``. The
+file is written atomically.
 
 JSON (``--json``): ``file``, ``format``, ``joints``, ``law``, ``pose`` (index, theta, k,
 springref), ``stiffness`` [N m/rad], ``springref`` [rad], ``damping`` [N m s/rad], ``omega`` and
 ``freq_hz`` (small vibrations about the spring reference), ``damping_ratio``, ``source``
-(``fit`` file or ``fit run here`` with its loss), ``time_s``.
+(``fit`` file or ``fit run here`` with its loss), ``refit`` (null, or what the refit at rest did),
+``check`` (the frequencies against the truth: per mode ``error``, ``max_error``, ``tolerance``
+(relative), ``ok``), ``beam_fingerprint`` (this beam's and the result's, ``match``),
+``warnings``, ``time_s``.
 """
 from __future__ import annotations
 
@@ -23,6 +34,7 @@ import sys
 import time
 
 from ..errors import BadInput
+from ..preflight import DEFAULT_TOLERANCE
 from ._common import add_beam_argument, positive_int, print_json, read_beam, table
 
 FIT_OPTIONS = ("modes", "law", "poses", "starts", "seed")
@@ -53,9 +65,18 @@ def add_source_arguments(parser, default_poses: str):
                      help="fit an nR-PRBDM here (truth: Euler-Bernoulli FEM)")
     src.add_argument("--from", dest="fit_file", metavar="FIT.json",
                      help="use the PRBDM of a saved 'prbdm fit --json' output (- for stdin)")
-    parser.add_argument("--pose", default=None, metavar="I|linear",
-                        help="pose whose SCF the springs use: an index (default 0, the first "
-                             "pose) or 'linear' (the theta = 0 pose of a linear fit)")
+    parser.add_argument("--pose", default="rest", metavar="rest|I|linear",
+                        help="'rest' (default): the small-vibration model about theta = 0, a "
+                             "paper-pose result refitted there against its own truth (no FEM); "
+                             "or the index of a pose of the result, or 'linear' (its theta = 0 "
+                             "pose)")
+    parser.add_argument("--tolerance", type=finite_float(positive=True), default=100 *
+                        DEFAULT_TOLERANCE, metavar="PCT",
+                        help="warn when a small-vibration frequency of the model is further "
+                             "than PCT %% from the truth (default %(default)g)")
+    parser.add_argument("--ignore-fingerprint", action="store_true",
+                        help="apply a --from result made for another beam (beam_fingerprint "
+                             "differs) anyway")
     g = parser.add_argument_group("fit options (with --joints)")
     g.add_argument("--modes", type=positive_int(1, 50), default=None,
                    help="truth modes to map (default n)")
@@ -91,10 +112,22 @@ def fit_from_args(args, beam) -> tuple[dict, list[str]]:
     return fit, warnings
 
 
+def prepared_from_args(args, beam):
+    """(fit dict as given, :class:`prbdm.preflight.Prepared`): the result asked for, its
+    fingerprint checked (with ``--from``) and, for ``--pose rest``, its model at theta = 0."""
+    from ..preflight import prepare
+
+    fit, warnings = fit_from_args(args, beam)
+    prep = prepare(beam, fit, pose=args.pose, ignore_fingerprint=args.ignore_fingerprint,
+                   check_beam=args.fit_file is not None)
+    prep.warnings[:0] = warnings
+    return fit, prep
+
+
 def add_arguments(parser):
     from ..export import FORMATS
 
-    add_source_arguments(parser, default_poses="paper")
+    add_source_arguments(parser, default_poses="linear")
     parser.add_argument("--format", "-f", choices=FORMATS, default=None,
                         help="mjcf (MuJoCo), urdf, or json (physical parameters); default from "
                              "the suffix of FILE (.xml/.mjcf, .urdf, .json)")
@@ -111,6 +144,7 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..export import WRITERS, format_from_path, prbdm_from_fit
+    from ..preflight import check_frequencies, where_of
 
     t0 = time.perf_counter()
     to_stdout = args.output == "-"
@@ -127,9 +161,13 @@ def run(args) -> int:
             raise BadInput(f"-o/--output: folder {str(folder)!r} of {args.output!r} does not "
                            "exist (it is not created)")
     beam, info = read_beam(args, "export")
-    fit, warnings = fit_from_args(args, beam)
-    desc = prbdm_from_fit(beam, fit, pose=args.pose, springref=args.springref,
+    fit, prep = prepared_from_args(args, beam)
+    desc = prbdm_from_fit(beam, prep.fit, pose=prep.pose, springref=args.springref,
                           damping=args.damping)
+    check, bad = check_frequencies(desc["omega"], prep.truth, prep.modes,
+                                   tolerance=args.tolerance / 100,
+                                   truth_source=prep.truth_source, where=where_of(desc))
+    warnings = prep.warnings + bad
     text = WRITERS[fmt](desc)
     if to_stdout:
         sys.stdout.write(text)
@@ -153,7 +191,9 @@ def run(args) -> int:
            "stiffness": [j["stiffness"] for j in h], "springref": [j["springref"] for j in h],
            "damping": [j["damping"] for j in h], "omega": desc["omega"],
            "freq_hz": desc["freq_hz"], "damping_ratio": desc["damping_ratio"],
-           "source": source, "warnings": warnings, "input": info,
+           "source": source, "refit": prep.refit, "check": check,
+           "beam_fingerprint": prep.fingerprint, "warnings": warnings,
+           "input": info,
            "time_s": time.perf_counter() - t0}
     if args.json:
         print_json(out)
@@ -167,4 +207,10 @@ def run(args) -> int:
     print(table(rows, ["joint", "x m", "K N m/rad", "springref rad", "damping N m s/rad"]))
     print("frequencies about the spring reference: "
           + ", ".join(f"{f:.5g}" for f in desc["freq_hz"]) + " Hz")
+    if prep.refit is not None:
+        print(f"refitted at theta = 0 against the result's {prep.refit['truth']} "
+              f"({prep.refit['time_s']:.2f} s): the given fit was made for deflected poses")
+    print(f"check against the truth ({check['truth']}), modes 1-{check['modes']}: worst mode "
+          f"{check['worst_mode']}, {100 * check['max_error']:.3g} % "
+          f"({'within' if check['ok'] else 'BEYOND'} {100 * check['tolerance']:g} %)")
     return 0

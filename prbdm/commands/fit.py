@@ -74,6 +74,7 @@ def run(args) -> int:
     # one process, small batched problems: one thread is fastest (docs/choices.md, "Threads")
     torch.set_num_threads(1)
 
+    from ..fingerprint import beam_fingerprint
     from ..fit import fit_prbdm
     from ..model import BeamTensors, links_from_gamma
 
@@ -92,6 +93,7 @@ def run(args) -> int:
     out["links"] = {key: v.tolist() for key, v in links.items()}
     out["warnings"] = warnings
     out["input"] = info
+    out["beam_fingerprint"] = beam_fingerprint(beam)   # export/simulate --from check it
     if args.plot:
         from ..plots import plot_fit
 

@@ -108,6 +108,7 @@ def checked_prediction(sur, beam, allow_extrapolation: bool = False):
 def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
     """Everything the command prints, as a JSON-ready dict."""
     from .. import surrogate
+    from ..fingerprint import beam_fingerprint
 
     pred = checked_prediction(sur, beam, allow_extrapolation)
     batch = surrogate.BeamBatch.from_beams(beam)
@@ -127,6 +128,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }
 

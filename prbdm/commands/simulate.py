@@ -6,7 +6,12 @@ Euler-Bernoulli beam's modal superposition from the same initial condition; comp
 motions and their first-mode periods (both measured by the same windowed least-squares sinusoid
 fit).
 With ``--joints`` the fit uses the linear pose set by default (``--poses linear``): small
-vibrations about the straight beam are what a simulation from rest compares against.
+vibrations about the straight beam are what a simulation from rest compares against. With
+``--from``, ``--pose rest`` (default) refits a result made for the paper's deflected poses at
+theta = 0 against its own truth frequencies first (no FEM; ``refit`` in the JSON), and the
+result's ``beam_fingerprint`` must be the beam's (exit 2 otherwise, unless
+``--ignore-fingerprint``). The chain's small-vibration frequencies at the start are compared with
+the truth before the run (``check``; a warning per mode beyond ``--tolerance``, default 5 %).
 
 JSON (``--json``): ``period_prbdm_s``, ``period_truth_s``, ``period_error`` (relative),
 ``fit_freq_error_mode1`` (the fit's first-mode frequency error at that pose, when known),
@@ -14,7 +19,8 @@ JSON (``--json``): ``period_prbdm_s``, ``period_truth_s``, ``period_error`` (rel
 ``period_prbdm_linear_s`` / ``period_truth_exact_s`` (linear theory, damped),
 ``omega_prbdm_linear``, ``omega_truth``, ``max_tip_difference`` / ``rms_tip_difference``
 (relative to the largest truth deflection), ``energy_drift`` (undamped), ``truth``, ``solver``,
-``initial``, ``damping_ratio``, ``duration_s``, ``time_s``, and the series ``t`` [s],
+``initial``, ``damping_ratio``, ``duration_s``, ``refit``, ``check``, ``beam_fingerprint``,
+``warnings``, ``time_s``, and the series ``t`` [s],
 ``tip_prbdm``, ``tip_truth`` [m].
 """
 from __future__ import annotations
@@ -57,8 +63,12 @@ def run(args) -> int:
     fit, warnings = fit_from_args(args, beam)
     res = simulate(beam, fit, pose=args.pose, tip_deflection=args.tip_deflection,
                    tip_impulse=args.tip_impulse, damping=args.damping, duration=args.duration,
-                   truth_modes=args.truth_modes)
+                   truth_modes=args.truth_modes, tolerance=args.tolerance / 100,
+                   ignore_fingerprint=args.ignore_fingerprint,
+                   check_beam=args.fit_file is not None)
     res.info["warnings"] = warnings + res.info["warnings"]
+    for w in res.info["warnings"]:
+        sys.stderr.write(f"warning: {w}\n")
     if args.plot:
         try:
             plot_simulation(res, args.plot)
@@ -68,8 +78,6 @@ def run(args) -> int:
     if args.json:
         print_json({**res.to_dict(), "input": beam_info})
         return 0
-    for w in info["warnings"]:
-        sys.stderr.write(f"warning: {w}\n")
     (kind, amount), = info["initial"].items()
     print(f"{info['joints']}R-PRBDM (law {info['law']}, pose {info['pose']}, SCF k = "
           f"{info['k']:.6g}) vs Euler-Bernoulli modes ({info['truth']['modes']}): "
@@ -88,6 +96,13 @@ def run(args) -> int:
     print(f"tip difference: max {100 * info['max_tip_difference']:.3g} %, rms "
           f"{100 * info['rms_tip_difference']:.3g} % of the largest deflection; "
           f"{info['solver']['nfev']} evaluations, {info['time_s']:.2f} s")
+    if info["refit"] is not None:
+        print(f"refitted at theta = 0 against the result's {info['refit']['truth']} "
+              f"({info['refit']['time_s']:.2f} s): the given fit was made for deflected poses")
+    c = info["check"]
+    print(f"check against the truth ({c['truth']}), modes 1-{c['modes']}: worst mode "
+          f"{c['worst_mode']}, {100 * c['max_error']:.3g} % "
+          f"({'within' if c['ok'] else 'BEYOND'} {100 * c['tolerance']:g} %)")
     if args.plot:
         print(f"plot written to {args.plot}")
     return 0

@@ -126,8 +126,11 @@ def solve_beam(beam, modes: int, elements: int | None = None, grading: bool = Tr
     values = phi[basis.nodal_dofs[0]]                      # w at the nodes
     scale = values[np.argmax(np.abs(values), axis=0), np.arange(k)]   # largest value -> +1
     scale[scale == 0] = 1.0
+    # modal mass of each shape as returned (largest value +1): int beta w^2 dxi, nondimensional;
+    # times rho t b_max L it is the SI modal mass, which a modal superposition needs
     return {"lam": lam, "participation": participation,
-            "shapes": {"kind": "beam", "x": nodes, "w": (values / scale).T},
+            "shapes": {"kind": "beam", "x": nodes, "w": (values / scale).T,
+                       "modal_mass": modal_mass / scale ** 2},
             "mesh": {"element": "cubic Hermite (C1), local basis", "elements": int(len(nodes) - 1),
                      "dofs": int(len(free)), "min_element": float(np.diff(nodes).min()),
                      "graded": bool(grading)}}
