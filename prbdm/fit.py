@@ -49,7 +49,7 @@ __all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDID
            "REFINE_ITER", "gamma_from_z",
            "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS", "StopRules"]
 
-DEFAULT_STARTS = 64
+from .constants import DEFAULT_STARTS, REFINE_CANDIDATES, REFINE_ITER  # noqa: E402
 #: smallest |z_j| of a start given by ``init_gamma`` (see :func:`fit_many`)
 INIT_Z_FLOOR = 0.02
 
@@ -647,9 +647,8 @@ def _result(problem: _Problem, b1: BeamTensors, z, omega_truth, lam_hat,
 #: (``Prediction.ranked_candidates``) and the four fixed starts, REFINE_ITER iterations. Measured
 #: on 200 held-out beams with the two-member beam-n4 (docs/surrogate.md §5): a median 1.06 times
 #: the optimised loss at 1/10.8 of its time in batches of 8 beams, 1/18 in batches of 40, 1/7.7
-#: one beam at a time (all 8 candidates, 12 starts: 1.05 at 1/8.6; 20 iterations: 1.03 at 1/9.1)
-REFINE_CANDIDATES = 4
-REFINE_ITER = 15
+#: one beam at a time (all 8 candidates, 12 starts: 1.05 at 1/8.6; 20 iterations: 1.03 at 1/9.1).
+#: Both numbers live in prbdm.constants.
 
 
 def refine_starts(gamma) -> np.ndarray:

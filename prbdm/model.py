@@ -47,7 +47,7 @@ __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stif
            "frequency_errors", "uniform_gamma", "GAMMA_MIN", "GAMMA_MAX", "LAWS",
            "PrecisionWarning", "PRECISION_RTOL", "PRECISION_FACTOR"]
 
-GAMMA_MIN, GAMMA_MAX = 0.025, 0.975   # Eq. 13 bounds on each link-length fraction
+from .constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402  (Eq. 13 bounds on each gamma_j)
 LAWS = ("beam", "paper")
 #: a short float type warns when its estimated relative error of the highest eigenvalue,
 #: PRECISION_FACTOR * eps * lam_max / lam_min, exceeds PRECISION_RTOL. The factor is measured:

@@ -195,17 +195,19 @@ def test_compare_runs(capsys, beam_file):
                "trained for 2 joints")
 
 
-def test_compare_refines_as_the_library_default():
-    """`prbdm compare`'s --refine-iter default is prbdm.fit.REFINE_ITER (written out in the
-    parser so that a bad flag fails before torch is imported)."""
-    import argparse
-
-    from prbdm.commands import compare
-    from prbdm.fit import REFINE_ITER
-
-    parser = argparse.ArgumentParser()
-    compare.add_arguments(parser)
-    assert parser.get_default("refine_iter") == REFINE_ITER
+def test_shared_constants_have_one_torch_free_home():
+    """prbdm.constants holds the numbers the parsers, the data-set parent and the library share;
+    importing it and the modules that read it in a parser loads no torch (issue 17 item 5)."""
+    code = ("import sys; import prbdm.constants, prbdm.commands.compare, prbdm.dataset.schema, "
+            "prbdm.surrogate.checkpoint; print('torch' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False"
+    import prbdm.fit as fit_module
+    from prbdm import constants, dataset, model, objectives
+    assert fit_module.REFINE_ITER is constants.REFINE_ITER
+    assert model.GAMMA_MIN is constants.GAMMA_MIN and objectives.OBJECTIVES is constants.OBJECTIVES
+    assert dataset.DEFAULT_STARTS is constants.DEFAULT_STARTS
 
 
 def test_predict_output_exports(capsys, beam_file, tmp_path):
@@ -248,6 +250,34 @@ def test_predict_output_exports(capsys, beam_file, tmp_path):
     other["x"] = [1.5 * v for v in other["x"]]
     assert_bad(*run(capsys, "export", beam_file(other), "--from", pred_file, "-o",
                     tmp_path / "x.xml"), "different beam")
+
+
+# ------------------------------------------------------------------------------------ objectives
+def test_objective_picks_the_checkpoint_and_a_mismatch_is_refused(capsys, beam_file, tmp_path,
+                                                                 monkeypatch):
+    """--objective frequency looks for TRUTH-nJOINTS-frequency; a checkpoint trained for the other
+    objective, or an unknown objective, is exit 2 naming the choices (issue 18)."""
+    from prbdm import surrogate as sg
+
+    assert sg.checkpoint_name(4, "beam", "frequency") == "beam-n4-frequency.safetensors"
+    assert sg.checkpoint_name(4, "beam") == "beam-n4.safetensors"
+    ckpt = tiny_checkpoint()                                       # trained on the paper's loss
+    rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ckpt,
+                       "--objective", "frequency")
+    assert rc == 2 and "trained for the 'eigenvalue' objective" in err
+    assert "eigenvalue, frequency" in err and len(err.strip().splitlines()) == 1
+    rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--objective", "energy")
+    assert rc == 2 and "'eigenvalue', 'frequency'" in err
+    # the default lookup by objective: a folder holding only beam-n2-frequency is found for
+    # --objective frequency, and not for the paper's objective
+    folder = tmp_path / "ckpts"
+    folder.mkdir()
+    shutil.copy(ckpt, folder / "beam-n2-frequency.safetensors")
+    shutil.copy(ckpt.with_suffix(".json"), folder / "beam-n2-frequency.json")
+    monkeypatch.setenv("PRBDM_CHECKPOINTS", str(folder))
+    assert sg.default_checkpoint(2, "beam", "frequency") == folder / "beam-n2-frequency.safetensors"
+    rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--objective", "frequency")
+    assert rc == 2 and "trained for the 'eigenvalue' objective" in err    # its metadata says so
 
 
 # ------------------------------------------------------------------------ no silent wrong answers

@@ -5,7 +5,9 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against);
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
-- ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``);
+- ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``), minimising
+  the checkpoint's objective (``--objective`` picks the checkpoint: the paper's eigenvalue loss by
+  default, or the frequency objective);
 - ``refined``: the fit started from the network's best candidate gammas (``REFINE_CANDIDATES``)
   and the fit's four fixed starts (:func:`prbdm.fit.refine_starts`), ``--refine-iter``
   iterations (:func:`prbdm.fit.fit_many` with ``init_gamma``).
@@ -27,8 +29,9 @@ import time
 
 import numpy as np
 
+from ..constants import REFINE_ITER
 from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
-from .predict import add_extrapolation_argument, load_surrogate
+from .predict import add_extrapolation_argument, add_objective_argument, load_surrogate
 
 
 def add_arguments(parser):
@@ -44,11 +47,10 @@ def add_arguments(parser):
                         help="start points of the optimised fit (default: prbdm fit's)")
     parser.add_argument("--seed", type=positive_int(0), default=0,
                         help="seed of the fit's start points (default 0)")
-    # 15 = prbdm.fit.REFINE_ITER (not imported here: prbdm.fit imports torch, and a bad flag
-    # should fail fast); tests/test_cli_predict.py checks that they agree
-    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=15,
+    parser.add_argument("--refine-iter", type=positive_int(1, 10000), default=REFINE_ITER,
                         help="iterations of the refinement from the network's best candidates and "
-                             "the fit's fixed starts (default 15)")
+                             f"the fit's fixed starts (default {REFINE_ITER})")
+    add_objective_argument(parser)
     add_extrapolation_argument(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
@@ -97,7 +99,8 @@ def run(args) -> int:
     progress, close = progress_bar("prbdm compare: fit")
     try:
         fit = fit_prbdm(beam, omega_t, joints=n, modes=r, law=sur.law, poses=poses,
-                        starts=args.starts, seed=args.seed, progress=progress)
+                        starts=args.starts, seed=args.seed, objective=sur.objective,
+                        progress=progress)
     finally:
         close()
     progress, close = progress_bar("prbdm compare: refined")
@@ -105,7 +108,8 @@ def run(args) -> int:
     try:
         starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
         ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
-                       init_gamma=starts, max_iter=args.refine_iter, progress=progress)[0]
+                       init_gamma=starts, max_iter=args.refine_iter, objective=sur.objective,
+                       progress=progress)[0]
     finally:
         close()
     t_ref = time.perf_counter() - t0
@@ -120,7 +124,7 @@ def run(args) -> int:
     Rd = min(R, len(omega_t))
     direct = pred.omega_truth[0][:Rd]
     out = {
-        "joints": n, "modes": r, "checkpoint": sur.describe(),
+        "joints": n, "modes": r, "objective": sur.objective, "checkpoint": sur.describe(),
         "truth": {"model": truth.model, "omega": omega_t.tolist(),
                   "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},
         "network": method(pred.gamma[0], pred.k[0], pred.omega[0], t_net),
@@ -150,7 +154,7 @@ def render(o: dict, beam) -> str:
     cols = max(r, Rd)
     t = o["truth"]
     lines = [f"beam: {beam.name or '(unnamed)'}; {o['joints']}R-PRBDM mapping {r} modes; "
-             f"checkpoint {o['checkpoint']['name']}", ""]
+             f"checkpoint {o['checkpoint']['name']}; {o['objective']} objective", ""]
     rows = [["truth (" + t["model"] + ")", "", *(f"{f:.5g} Hz" for f in t["freq_hz"][:cols]),
              f"{t['time_s']:.3g}"]]
     for key, label in (("network", "network"), ("network_direct", "network (direct)"),

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import sys
 
+from ..constants import OBJECTIVES
 from ..errors import BadInput
 from ._common import add_beam_argument, positive_int, print_json, read_beam, table
 
@@ -45,8 +46,17 @@ def add_arguments(parser):
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (.safetensors); default: the packaged one for "
                              "--joints and --truth")
+    add_objective_argument(parser)
     add_extrapolation_argument(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_objective_argument(parser):
+    parser.add_argument("--objective", choices=OBJECTIVES, default=None,
+                        help="what the network was trained to minimise: the paper's eigenvalue "
+                             "loss, or the worst frequency error per pose (every mode right); "
+                             "default: the checkpoint's, or 'eigenvalue' to pick the default "
+                             "checkpoint (TRUTH-nJOINTS[-frequency])")
 
 
 def add_extrapolation_argument(parser):
@@ -66,14 +76,19 @@ def load_surrogate(args):
     if args.checkpoint is not None:
         sur = surrogate.load_checkpoint(args.checkpoint)
     else:
-        sur = surrogate.load_checkpoint(surrogate.default_checkpoint(args.joints,
-                                                                     args.truth or "beam"))
+        sur = surrogate.load_checkpoint(surrogate.default_checkpoint(
+            args.joints, args.truth or "beam", getattr(args, "objective", None) or "eigenvalue"))
     if sur.joints != args.joints:
         raise BadInput(f"--joints {args.joints}: checkpoint {sur.name} was trained for "
                        f"{sur.joints} joints")
     if args.truth is not None and sur.truth != args.truth:
         raise BadInput(f"--truth {args.truth}: checkpoint {sur.name} was trained on the "
                        f"{sur.truth!r} truth")
+    objective = getattr(args, "objective", None)
+    if objective is not None and sur.objective != objective:
+        raise BadInput(f"--objective {objective}: checkpoint {sur.name} was trained for the "
+                       f"{sur.objective!r} objective (choices: {', '.join(OBJECTIVES)}; each "
+                       "checkpoint serves the one it was trained for)")
     return sur
 
 

@@ -9,18 +9,18 @@ import math
 
 import numpy as np
 
+from ..constants import DEFAULT_STARTS, OBJECTIVES  # noqa: F401  (re-exported)
 from ..errors import BadInput
 from ..geometry import RANDOM_DEFAULTS, Material, random_beam
 
 MANIFEST = "_manifest.json"
 FORMAT = "prbdm-dataset"
 FORMAT_VERSION = 1
+
 TRUTH_MODELS = ("beam", "plate")
 LAWS = ("beam", "paper")
-#: what the fit minimises: the names of prbdm.objectives.OBJECTIVES (not imported, to keep torch
-#: out of the parent); a spec without ``objective`` (made before the choice existed) is
-#: ``eigenvalue``, the only objective there was
-OBJECTIVES = ("eigenvalue", "frequency")
+#: what the fit minimises (prbdm.constants.OBJECTIVES); a spec without ``objective`` (made
+#: before the choice existed) is ``eigenvalue``, the only objective there was
 DEFAULT_OBJECTIVE = "eigenvalue"
 #: beams per batched fit (one task) for a new data set when --fit-batch is not given: measured
 #: best on 2 cores (benchmarks/bench_dataset.py); a set without ``fit_batch`` in its spec (made
@@ -30,9 +30,8 @@ MAX_FIT_BATCH = 256
 #: default number of records per part file, and the longest a record waits in memory [s]
 PART_SIZE = 256
 FLUSH_S = 60.0
-#: fit multistart points when --starts is not given: prbdm.fit.DEFAULT_STARTS when this was
-#: written (not imported, to keep torch out of the parent); a spec records the number it used
-DEFAULT_STARTS = 64
+#: fit multistart points when --starts is not given: prbdm.constants.DEFAULT_STARTS (a spec
+#: records the number it used)
 
 #: spec field -> the command-line flag that sets it (for error messages)
 FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "--truth",

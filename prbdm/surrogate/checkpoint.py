@@ -246,27 +246,36 @@ def _checkpoint_dirs() -> list[Path]:
     return dirs + [PACKAGE_CHECKPOINTS]
 
 
-def checkpoint_name(joints: int, truth: str) -> str:
-    return f"{truth}-n{joints}.safetensors"
+from ..constants import OBJECTIVES  # noqa: E402
+
+
+def checkpoint_name(joints: int, truth: str, objective: str = "eigenvalue") -> str:
+    """``TRUTH-nJOINTS.safetensors`` (the paper's eigenvalue objective), or
+    ``TRUTH-nJOINTS-frequency.safetensors`` (the frequency objective)."""
+    suffix = "" if objective == "eigenvalue" else f"-{objective}"
+    return f"{truth}-n{joints}{suffix}.safetensors"
 
 
 def available_checkpoints() -> list[Path]:
-    """Every default checkpoint found (``TRUTH-nJOINTS.safetensors`` in the checkpoint folders)."""
+    """Every default checkpoint found (``TRUTH-nJOINTS[-OBJECTIVE].safetensors`` in the
+    checkpoint folders)."""
     found = []
     for d in _checkpoint_dirs():
         found += sorted(d.glob("*-n*.safetensors")) if d.is_dir() else []
     return found
 
 
-def default_checkpoint(joints: int, truth: str = "beam") -> Path:
-    """The default checkpoint for ``joints`` joints and the ``truth`` model: the first
-    ``TRUTH-nJOINTS.safetensors`` in $PRBDM_CHECKPOINTS (folders separated by os.pathsep), then in
-    the shipped ``checkpoints/``. BadInput listing what exists when there is none."""
-    name = checkpoint_name(joints, truth)
+def default_checkpoint(joints: int, truth: str = "beam", objective: str = "eigenvalue") -> Path:
+    """The default checkpoint for ``joints`` joints, the ``truth`` model and the ``objective``:
+    the first :func:`checkpoint_name` in $PRBDM_CHECKPOINTS (folders separated by os.pathsep),
+    then in the shipped ``checkpoints/``. BadInput listing what exists when there is none."""
+    if objective not in OBJECTIVES:
+        raise BadInput(f"--objective: must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    name = checkpoint_name(joints, truth, objective)
     for d in _checkpoint_dirs():
         if (d / name).is_file():
             return d / name
     have = ", ".join(p.stem for p in available_checkpoints()) or "none"
-    raise BadInput(f"--joints {joints} --truth {truth}: no trained surrogate checkpoint "
-                   f"{name!r} (available: {have}); train one with training/train_surrogate.py "
-                   "or pass --checkpoint PATH")
+    raise BadInput(f"--joints {joints} --truth {truth} --objective {objective}: no trained "
+                   f"surrogate checkpoint {name!r} (available: {have}); train one with "
+                   "training/train_surrogate.py or pass --checkpoint PATH")

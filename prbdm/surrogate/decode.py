@@ -16,7 +16,7 @@ import numpy as np
 
 from .numpy_model import prbdm_eigenvalues
 
-GAMMA_MIN, GAMMA_MAX = 0.025, 0.975     # as prbdm.model (not imported: it imports torch)
+from ..constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402
 
 
 def silu(v):

@@ -131,6 +131,8 @@ class Surrogate:
             self.joints = int(metadata["joints"])
             self.truth = str(metadata["truth"])
             self.law = str(metadata["law"])
+            # checkpoints made before the frequency objective were trained on the paper's loss
+            self.objective = str(metadata.get("objective", "eigenvalue"))
             self.poses = np.asarray(metadata["poses"], dtype=np.float64)
             self.modes = int(metadata["modes"])
             self.feature_spec = FeatureSpec(**metadata["features"]["spec"])
@@ -174,6 +176,7 @@ class Surrogate:
         ds = self.metadata.get("dataset", {})
         return {"path": str(self.path) if self.path else None, "name": self.name,
                 "truth": self.truth, "joints": self.joints, "modes": self.modes, "law": self.law,
+                "objective": self.objective,
                 "dataset_size": ds.get("size"), "dataset_sha256": ds.get("sha256"),
                 "training_mode": self.metadata.get("training", {}).get("selected_mode")}
 

@@ -1,0 +1,21 @@
+"""The numbers that several parts of prbdm share, in one place that imports nothing (no torch, no
+scikit-fem), so that ``prbdm predict``, the data-set parent process and the command-line parsers
+can use them without loading the physics.
+
+Each constant is documented where its reasoning lives; this module only holds the value.
+"""
+
+#: bounds on each link-length fraction gamma_j (docs/conventions.md §3, Eq. 13)
+GAMMA_MIN, GAMMA_MAX = 0.025, 0.975
+
+#: what a fit or a network minimises (prbdm.objectives): the paper's eigenvalue loss (Eq. 12-13)
+#: or the worst relative frequency error per pose
+OBJECTIVES = ("eigenvalue", "frequency")
+
+#: start points of a fit up to 4 joints (twice as many beyond; prbdm.fit.default_starts)
+DEFAULT_STARTS = 64
+
+#: refinement from a network's answer: its best candidate segmentations, and iterations
+#: (prbdm.fit.refine_starts; measured in docs/fit.md)
+REFINE_CANDIDATES = 4
+REFINE_ITER = 15
