@@ -23,7 +23,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 from prbdm.geometry import Beam, random_beam
 from prbdm.truth import bending_frequencies

@@ -500,7 +500,7 @@ def export(beam, fit: dict, fmt: str, path=None, **options) -> str:
         raise BadInput(f"--format: must be one of {', '.join(FORMATS)}, got {fmt!r}")
     text = WRITERS[fmt](prbdm_from_fit(beam, fit, **options))
     if path is not None:
-        from .commands._common import atomic_write
+        from .files import atomic_write
 
         try:
             atomic_write(path, text)

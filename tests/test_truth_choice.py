@@ -3,7 +3,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from prbdm.geometry import Beam, random_beam
 from prbdm.truth import bending_frequencies

@@ -3,12 +3,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
-import tempfile
-from pathlib import Path
 
 from ..errors import BadInput
+from ..files import atomic_write  # noqa: F401  (the commands' writer; one home: prbdm.files)
 
 
 def add_beam_argument(parser):
@@ -151,27 +149,3 @@ def table(rows, header) -> str:
     return "\n".join(lines)
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def atomic_write(path, data: bytes | str, *, make_parents: bool = True) -> None:
-    """Write a file whole or not at all: temporary file in the same folder, then rename.
-
-    The file gets the usual permissions of a new file (0o666 less the umask), not mkstemp's
-    0o600. ``make_parents=False``: a missing folder is an error (FileNotFoundError) instead of
-    being created."""
-    path = Path(path)
-    if make_parents:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode() if isinstance(data, str) else data)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

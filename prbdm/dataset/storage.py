@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, files
 from ..errors import BadInput
 from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, FLAGS, FORMAT,
                      FORMAT_VERSION, MANIFEST, arrow_schema, flatten, manifest_columns,
@@ -46,21 +46,8 @@ def set_columns(manifest: dict) -> list[str]:
 
 
 def atomic_write(path: Path, data: bytes | str) -> None:
-    """Whole or not at all: a hidden temporary file beside ``path`` (``.NAME.*.tmp``), flushed
-    to disk, then renamed over ``path``; mode 0644 like any data file."""
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode() if isinstance(data, str) else data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Whole or not at all, flushed to disk before the rename (:func:`prbdm.files.atomic_write`)."""
+    files.atomic_write(path, data, make_parents=False, sync=True)
 
 
 def write_manifest(out: Path, manifest: dict) -> None:

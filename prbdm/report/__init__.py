@@ -77,7 +77,7 @@ def stability_section(cfg: ReportConfig) -> tuple[str | None, str]:
 
 def write_report(cfg: ReportConfig, out) -> dict:
     """Run everything, then write ``out``/report.md, report.json and the PNGs (atomically)."""
-    from ..commands._common import atomic_write
+    from ..files import atomic_write
 
     res = run_report(cfg)
     stab_md, stab_note = stability_section(cfg)

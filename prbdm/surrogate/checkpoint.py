@@ -68,16 +68,13 @@ def weights_sha256(weights: dict) -> str:
     return h.hexdigest()
 
 
-def _replace_atomically(tmp: Path, path: Path) -> None:
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
-
-
 def save_checkpoint(path, weights: dict, metadata: dict) -> Path:
     """Write ``weights`` (name -> NumPy array) and ``metadata`` (JSON-able) as one safetensors
     file (metadata in its header, key ``prbdm``, with ``weights_sha256`` of these weights), and a
     readable copy ``PATH`` with ``.json``. Each file is written whole or not at all."""
-    from safetensors.numpy import save_file
+    from safetensors.numpy import save
+
+    from ..files import atomic_write
 
     path = Path(path)
     arrays = {k: np.ascontiguousarray(v) for k, v in weights.items()}
@@ -89,16 +86,10 @@ def save_checkpoint(path, weights: dict, metadata: dict) -> Path:
             "weights_sha256": weights_sha256(arrays)}
     text = json.dumps(meta, allow_nan=False)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp_json = path.with_name(f".{path.stem}.json.tmp")
-    try:
-        save_file(arrays, str(tmp), metadata={"prbdm": text})
-        tmp_json.write_text(json.dumps(meta, indent=1, allow_nan=False) + "\n")
-        _replace_atomically(tmp, path)
-        _replace_atomically(tmp_json, path.with_suffix(".json"))
-    finally:
-        tmp.unlink(missing_ok=True)
-        tmp_json.unlink(missing_ok=True)
+    # both files whole or not at all (the JSON written second: a checkpoint found without its
+    # JSON beside it is refused, never read with a stale one)
+    atomic_write(path, save(arrays, metadata={"prbdm": text}))
+    atomic_write(path.with_suffix(".json"), json.dumps(meta, indent=1, allow_nan=False) + "\n")
     return path
 
 

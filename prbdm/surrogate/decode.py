@@ -16,7 +16,7 @@ import numpy as np
 
 from .numpy_model import prbdm_eigenvalues
 
-from ..constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402
+from ..constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402,F401  (GAMMA_MAX re-exported)
 
 
 def silu(v):
