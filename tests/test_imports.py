@@ -110,3 +110,14 @@ def test_the_graph_sees_the_imports():
 def test_the_import_graph_is_acyclic(lazy):
     cycle = find_cycle(graph(lazy))
     assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_the_library_never_imports_the_commands():
+    """prbdm.commands is the command line's; the library below it (and its shared constants and
+    file writing, prbdm.constants and prbdm.files) never reaches up into it (issue 17 item 5)."""
+    g = graph(lazy=True)
+    up = {m: sorted(t for t in targets if t.startswith("prbdm.commands"))
+          for m, targets in g.items()
+          if not (m.startswith("prbdm.commands") or m == "prbdm.cli")}
+    assert {m: t for m, t in up.items() if t} == {}
+    assert g["prbdm.constants"] == set() and g["prbdm.files"] == set()
