@@ -1,0 +1,91 @@
+"""Worst-mode frequency error of networks against the optimised fits, on held-out beams.
+
+    python training/evaluate_objective.py --data data/beam-n4-seed1-frequency \
+        --checkpoints checkpoints/beam-n4-frequency.safetensors,checkpoints/beam-n4.safetensors
+
+The data set is a labelled one of a seed no checkpoint saw (``prbdm dataset generate --seed 1
+--objective frequency``): its fits minimised the data set's objective. For every checkpoint and
+for those fits, over the beams: the worst per-mode frequency error over the poses
+(``max |omega / omega_T - 1|``, %), median and p95, and the paper's loss (SPEC §3, %), median.
+The target of issue 18: the frequency network's median worst-mode error within 1.5x of the
+frequency fits'. Prints one table; ``--json_out`` also writes it.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _cli  # noqa: E402
+
+PROG = "evaluate_objective"
+SETTINGS = {
+    "data": _cli.Setting("", "labelled held-out data set (its fits are the reference)"),
+    "checkpoints": _cli.Setting("", "comma-separated checkpoints to evaluate"),
+    "json_out": _cli.Setting("", "also write the results to this JSON file"),
+}
+cfg = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, required=("data", "checkpoints"))
+
+import numpy as np  # noqa: E402
+
+from prbdm import dataset as ds  # noqa: E402
+from prbdm import surrogate as sg  # noqa: E402
+from prbdm.geometry import Material  # noqa: E402
+
+try:
+    manifest = ds.read_manifest(cfg["data"])
+    table = ds.read_table(cfg["data"], columns=["index", "x", "half_width", "thickness",
+                                                "omega_truth", "loss_percent",
+                                                "frequency_percent"],
+                          status="ok").to_pandas()
+except Exception as exc:                                      # noqa: BLE001
+    _cli.fail(PROG, f"--data: cannot read the labelled data set {cfg['data']!r} "
+              f"({str(exc).splitlines()[0]})")
+spec = manifest["spec"]
+if spec["starts"] == 0:
+    _cli.fail(PROG, f"--data: {cfg['data']} is truth-only; it needs optimised fits (--starts 64)")
+B = len(table)
+batch = sg.BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
+omega_t = np.stack(table["omega_truth"].to_numpy())
+r = spec["modes"]
+rows = [dict(method=f"optimised fit ({spec.get('objective', 'eigenvalue')} objective, "
+                    f"{spec['starts']} starts)",
+             worst_median=float(np.median(table["frequency_percent"])),
+             worst_p95=float(np.percentile(table["frequency_percent"], 95)),
+             loss_median=float(np.median(table["loss_percent"])))]
+for path in [p for p in cfg["checkpoints"].split(",") if p]:
+    try:
+        sur = sg.load_checkpoint(path)
+    except Exception as exc:                                  # noqa: BLE001
+        _cli.fail(PROG, f"--checkpoints: {str(exc).splitlines()[0]}")
+    if sur.joints != spec["joints"] or sur.modes != r:
+        _cli.fail(PROG, f"--checkpoints: {path} is for {sur.joints} joints / {sur.modes} modes, the "
+                  f"data set for {spec['joints']} / {r}")
+    pred = sg.predict(batch, checkpoint=sur, frequencies=True, warn=False)
+    worst = 100 * np.abs(pred.omega[..., :r] / omega_t[:, None, :r] - 1).max(axis=(1, 2))
+    lam = pred.omega[..., :r] ** 2
+    ref = omega_t[:, None, :r] ** 2
+    loss = 100 * (np.linalg.norm(lam - ref, axis=-1) / np.linalg.norm(ref, axis=-1)).mean(-1)
+    ok = ~pred.implausible if getattr(pred, "implausible", None) is not None else \
+        np.ones(B, dtype=bool)
+    rows.append(dict(method=f"network {sur.name} ({sur.objective} objective)",
+                     worst_median=float(np.median(worst)),
+                     worst_p95=float(np.percentile(worst, 95)),
+                     loss_median=float(np.median(loss)), implausible=int((~ok).sum())))
+
+fit_median = rows[0]["worst_median"]
+print(f"{B} held-out beams of {cfg['data']} (seed {spec['seed']}), n = {spec['joints']}, "
+      f"{r} modes, {spec['poses']} poses, {spec['truth']} truth")
+print(f"{'method':58s} {'worst-mode err median %':>23s} {'p95 %':>7s} {'x fit':>6s} "
+      f"{'paper loss median %':>20s}")
+for row in rows:
+    row["ratio_to_fit"] = row["worst_median"] / fit_median
+    print(f"{row['method']:58s} {row['worst_median']:23.3f} {row['worst_p95']:7.2f} "
+          f"{row['ratio_to_fit']:6.2f} {row['loss_median']:20.4f}")
+if cfg["json_out"]:
+    from prbdm.files import atomic_write
+    atomic_write(cfg["json_out"], json.dumps(dict(
+        data=_cli.portable_path(cfg["data"]), beams=B, spec=spec, rows=rows,
+        command="python training/evaluate_objective.py " + " ".join(sys.argv[1:])),
+        indent=1) + "\n")
