@@ -106,3 +106,8 @@ def test_demo_runs(capsys):
     assert main(["demo", "--joints", "2", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["fit"]["loss_percent"] < out["uniform_chain"]["loss_percent"]
+    # both objectives side by side: each fit is best at what it minimises (issue 18 item 4)
+    eig, freq = out["fit"], out["fit_frequency"]
+    assert eig["objective"] == "eigenvalue" and freq["objective"] == "frequency"
+    assert eig["loss_percent"] <= freq["loss_percent"] * (1 + 1e-6)
+    assert freq["max_freq_error"] <= eig["max_freq_error"] * (1 + 1e-6)

@@ -1,7 +1,9 @@
 """``prbdm demo``: the whole pipeline on a built-in tapered steel panel, in a few seconds.
 
 Truth frequencies from the Euler-Bernoulli FEM, the classical rigid-finite-element chain (equal
-links, k = 1, no fit) for reference, then the optimised 4R-PRBDM; prints both against the truth.
+links, k = 1, no fit) for reference, then the optimised 4R-PRBDM twice, side by side: minimising
+the paper's eigenvalue loss and the frequency objective (every mode right); prints all against the
+truth.
 """
 from __future__ import annotations
 
@@ -46,26 +48,33 @@ def run(args) -> int:
         rfe_err = frequency_errors(lam_rfe, om_t).amax(0)
     t_rfe = time.perf_counter() - t0
     fit = fit_prbdm(beam, truth.omega, joints=n)
+    ffit = fit_prbdm(beam, truth.omega, joints=n, objective="frequency")
     if args.json:
         print_json({"beam": DEMO_BEAM, "truth": truth.to_dict(),
                     "uniform_chain": {"loss_percent": rfe_loss,
                                       "max_freq_error": rfe_err.tolist(), "time_s": t_rfe},
-                    "fit": fit.to_dict()})
+                    "fit": fit.to_dict(), "fit_frequency": ffit.to_dict()})
         return 0
     print(f"{beam.name}: L = {beam.length} m, t = {beam.thickness * 1e3:g} mm, "
           f"mass {beam.mass:.2f} kg")
     print(f"truth: Euler-Bernoulli FEM, {truth.time_s * 1e3:.1f} ms\n")
     rows = []
-    fe = fit.freq_error.max(0)
+    fe, ffe = fit.freq_error.max(0), ffit.freq_error.max(0)
     for j in range(n):
         rows.append([j + 1, f"{truth.omega[j] / (2 * math.pi):.4g}",
                      f"{math.sqrt(lam_rfe[0, j]) / (2 * math.pi):.4g}", f"{100 * rfe_err[j]:.3f}",
-                     f"{fit.omega[0][j] / (2 * math.pi):.4g}", f"{100 * fe[j]:.3f}"])
-    print(table(rows, ["mode", "truth Hz", "equal-link Hz", "err %", "fitted Hz", "err %"]))
+                     f"{fit.omega[0][j] / (2 * math.pi):.4g}", f"{100 * fe[j]:.3f}",
+                     f"{ffit.omega[0][j] / (2 * math.pi):.4g}", f"{100 * ffe[j]:.3f}"])
+    print(table(rows, ["mode", "truth Hz", "equal-link Hz", "err %", "eigenvalue fit Hz", "err %",
+                       "frequency fit Hz", "err %"]))
     print(f"\nfrequencies at the first of {len(fit.k)} paper poses; errors: worst over the poses")
     print(f"loss (Eq. 13): equal-link chain {rfe_loss:.3f} %, optimised {n}R-PRBDM "
-          f"{fit.loss_percent:.4f} % ({fit.time_s:.2f} s, {fit.n_starts} starts)")
-    print("gamma = " + ", ".join(f"{g:.4f}" for g in fit.gamma))
-    print("k     = " + ", ".join(f"{k:.4f}" for k in fit.k))
+          f"{fit.loss_percent:.4f} % ({fit.time_s:.2f} s, {fit.n_starts} starts), the frequency "
+          f"fit {ffit.loss_percent:.4f} % ({ffit.time_s:.2f} s)")
+    print("eigenvalue fit: gamma = " + ", ".join(f"{g:.4f}" for g in fit.gamma))
+    print("frequency fit:  gamma = " + ", ".join(f"{g:.4f}" for g in ffit.gamma))
+    print("\nthe eigenvalue objective is the paper's (reproduces its tables; the highest mode "
+          "dominates it);\nthe frequency objective keeps every mode within the smallest worst "
+          "error: use it when mode 1 matters")
     print("\nnext: prbdm fit BEAM.json --joints 4 --plot fit.png   (see the README)")
     return 0
