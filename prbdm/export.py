@@ -58,25 +58,28 @@ LINK_MATCH_RTOL = 1e-6
 
 # ----------------------------------------------------------------------------- sources
 def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", poses="paper",
-            starts: int | None = None, seed: int = 0, truth: str = "beam") -> dict:
+            starts: int | None = None, seed: int = 0, truth: str = "auto") -> dict:
     """Fit a PRBDM to ``beam`` (truth + multistart fit) and return what ``prbdm fit --json``
-    prints: :meth:`prbdm.fit.FitResult.to_dict` plus ``truth`` and ``links``."""
+    prints: :meth:`prbdm.fit.FitResult.to_dict` plus ``truth`` and ``links``. ``truth``: a truth
+    model, or ``auto`` (:func:`prbdm.truth.choice.choose_truth`: the plate for a wide panel)."""
     import torch
 
     from .fingerprint import beam_fingerprint
     from .fit import fit_prbdm
     from .model import BeamTensors, links_from_gamma
     from .truth import bending_frequencies
+    from .truth.choice import choose_truth
 
     r = modes or joints
-    tr = bending_frequencies(beam, model=truth, modes=max(r, joints))
+    model, reason = choose_truth(beam, truth)
+    tr = bending_frequencies(beam, model=model, modes=max(r, joints))
     res = fit_prbdm(beam, tr.omega, joints=joints, modes=r, law=law, poses=poses,
                     starts=starts, seed=seed)
     bt = BeamTensors.from_beams(beam)
     with torch.no_grad():
         links = links_from_gamma(bt, torch.as_tensor(res.gamma)).physical(bt)
     out = res.to_dict()
-    out["truth"] = {"model": tr.model, "time_s": tr.time_s}
+    out["truth"] = {"model": tr.model, "time_s": tr.time_s, "reason": reason}
     out["links"] = {key: v.tolist() for key, v in links.items()}
     out["beam_fingerprint"] = beam_fingerprint(beam)
     return out

@@ -111,3 +111,14 @@ def test_demo_runs(capsys):
     assert eig["objective"] == "eigenvalue" and freq["objective"] == "frequency"
     assert eig["loss_percent"] <= freq["loss_percent"] * (1 + 1e-6)
     assert freq["max_freq_error"] <= eig["max_freq_error"] * (1 + 1e-6)
+
+
+@pytest.mark.parametrize("half_width, model", [(0.2, "plate"), (0.01, "beam")])
+def test_truth_auto_is_the_default_and_says_why(beam_file, capsys, half_width, model):
+    """`prbdm fit` without --truth: the plate for a wide panel, the beam for a 2 cm strip on 1 m
+    (full width <= 0.05 L, where the beam is within 1 % of the plate; issue 16 item 5)."""
+    path = beam_file({"x": [0.0, 1.0], "half_width": [half_width, half_width / 2],
+                      "thickness": 0.004})
+    assert main(["fit", path, "--joints", "2", "--starts", "4", "--json"]) == 0
+    truth = json.loads(capsys.readouterr().out)["truth"]
+    assert truth["model"] == model and truth["reason"].startswith("auto:")

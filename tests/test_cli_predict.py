@@ -280,6 +280,33 @@ def test_objective_picks_the_checkpoint_and_a_mismatch_is_refused(capsys, beam_f
     assert rc == 2 and "trained for the 'eigenvalue' objective" in err    # its metadata says so
 
 
+def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
+        capsys, beam_file, tmp_path, monkeypatch):
+    """Without --truth: a strip is answered by the beam network quietly; a wide panel by a plate
+    network when one is found, else by the beam network with a warning that names the plate
+    and the remedy (issue 16 item 5; JSON `truth` and `truth_reason`)."""
+    folder = tmp_path / "ckpts"
+    folder.mkdir()
+    shutil.copy(tiny_checkpoint(), folder / "beam-n2.safetensors")
+    shutil.copy(tiny_checkpoint().with_suffix(".json"), folder / "beam-n2.json")
+    monkeypatch.setenv("PRBDM_CHECKPOINTS", str(folder))
+    strip = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.004})
+    rc, out, err = run(capsys, "predict", strip, "--joints", 2, "--json")
+    assert rc == 0 and "faithful truth" not in err
+    assert json.loads(out)["truth_reason"].startswith("auto: full width 0.04 L <= 0.05 L")
+    wide = beam_file({"x": [0, 1], "half_width": [0.3, 0.2], "thickness": 0.02})
+    rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
+    r = json.loads(out)
+    assert rc == 0 and r["truth"] == "beam" and "faithful truth is the plate" in err
+    assert "--truth plate" in r["warnings"][-1]
+    # a plate network in the folder is taken for the wide panel (a copy: its metadata still says
+    # beam, so the answer names that too)
+    shutil.copy(tiny_checkpoint(), folder / "plate-n2.safetensors")
+    shutil.copy(tiny_checkpoint().with_suffix(".json"), folder / "plate-n2.json")
+    rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
+    assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("plate-n2.safetensors")
+
+
 # ------------------------------------------------------------------------ no silent wrong answers
 def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path):
     """64 bytes overwritten in the weights: exit 2 naming the file, with and without --json."""

@@ -46,6 +46,18 @@ def read_beam(args, command: str, model: str | None = None):
     return beam, info
 
 
+def peek_beam(args):
+    """The beam of ``args.beam`` as given, unchecked and silent, or None if it cannot be read (a
+    look ahead, e.g. to choose a network by the panel's width; :func:`read_beam` then reads it
+    properly and reports any problem)."""
+    from ..geometry import load_beam
+
+    try:
+        return load_beam(args.beam)
+    except BadInput:
+        return None
+
+
 #: optional module -> the extra of pyproject.toml that installs it
 EXTRAS = {"pyarrow": "data", "pandas": "data", "dask": "data", "distributed": "data",
           "matplotlib": "plot", "mujoco": "sim"}   # safetensors is a core dependency

@@ -62,7 +62,8 @@ def add_source_arguments(parser, default_poses: str):
     add_beam_argument(parser)
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--joints", "-n", type=positive_int(1, 39), metavar="N",
-                     help="fit an nR-PRBDM here (truth: Euler-Bernoulli FEM)")
+                     help="fit an nR-PRBDM here (truth: --truth auto, the beam for a strip up to "
+                        "0.05 L wide, the plate beyond)")
     src.add_argument("--from", dest="fit_file", metavar="FIT.json",
                      help="use the PRBDM of a saved 'prbdm fit --json' output (- for stdin)")
     parser.add_argument("--pose", default="rest", metavar="rest|I|linear",

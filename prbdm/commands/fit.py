@@ -1,6 +1,7 @@
 """``prbdm fit BEAM --joints N``: the optimised PRBDM of a beam (SPEC §3 Eq. 13, §4).
 
-Computes the beam's truth frequencies (``--truth``, default the Euler-Bernoulli FEM), then fits
+Computes the beam's truth frequencies (``--truth``; by default ``auto``: the Euler-Bernoulli FEM
+for a strip up to 0.05 L wide, the Kirchhoff plate beyond, :mod:`prbdm.truth.choice`), then fits
 gamma and one SCF per pose by batched multistart optimisation (:mod:`prbdm.fit`).
 
 JSON (``--json``): everything of :meth:`prbdm.fit.FitResult.to_dict` (``gamma``, ``k``, ``law``,
@@ -26,10 +27,11 @@ def add_arguments(parser):
                         help="number of revolute joints n (1..39: each link >= 0.025 L)")
     parser.add_argument("--modes", type=positive_int(1, 50), default=None,
                         help="truth modes to map, r = min(n, modes) (default n)")
-    parser.add_argument("--truth", choices=(*TRUTHS, "auto"), default="beam",
-                        help="truth model: 'analytic' (uniform beams), 'beam' Euler-Bernoulli FEM "
-                             "(default), 'plate' Kirchhoff FEM, or 'auto': the beam up to a full "
-                             "width of 0.05 L, the plate beyond (docs/truth.md)")
+    parser.add_argument("--truth", choices=(*TRUTHS, "auto"), default="auto",
+                        help="truth model: 'analytic' (uniform beams), 'beam' Euler-Bernoulli FEM, "
+                             "'plate' Kirchhoff FEM, or 'auto' (default): the beam up to a full "
+                             "width of 0.05 L, the plate beyond, where the beam would be more than "
+                             "1 %% off (docs/truth.md)")
     parser.add_argument("--objective", choices=("eigenvalue", "frequency"), default="eigenvalue",
                         help="what the fit minimises: 'eigenvalue', the paper's loss (default), "
                              "or 'frequency', the worst relative frequency error per pose "

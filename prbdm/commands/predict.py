@@ -31,7 +31,7 @@ import sys
 
 from ..constants import OBJECTIVES
 from ..errors import BadInput
-from ._common import add_beam_argument, positive_int, print_json, read_beam, table
+from ._common import add_beam_argument, peek_beam, positive_int, print_json, read_beam, table
 
 TRUTHS = ("beam", "plate")
 
@@ -69,15 +69,18 @@ class PredictionError(RuntimeError):
     """The checkpoint gave an implausible prediction for a beam inside its training range."""
 
 
-def load_surrogate(args):
-    """The checkpoint asked for, checked against --joints and --truth (BadInput otherwise)."""
+def load_surrogate(args, auto_truth: str | None = None):
+    """The checkpoint asked for, checked against --joints and --truth (BadInput otherwise).
+    ``auto_truth``: the truth `--truth auto` chose, used to look up the default checkpoint when
+    neither --checkpoint nor --truth is given."""
     from .. import surrogate
 
     if args.checkpoint is not None:
         sur = surrogate.load_checkpoint(args.checkpoint)
     else:
         sur = surrogate.load_checkpoint(surrogate.default_checkpoint(
-            args.joints, args.truth or "beam", getattr(args, "objective", None) or "eigenvalue"))
+            args.joints, args.truth or auto_truth or "beam",
+            getattr(args, "objective", None) or "eigenvalue"))
     if sur.joints != args.joints:
         raise BadInput(f"--joints {args.joints}: checkpoint {sur.name} was trained for "
                        f"{sur.joints} joints")
@@ -163,16 +166,61 @@ def run(args) -> int:
         return 1
 
 
+def auto_network_truth(args) -> str | None:
+    """The truth `--truth auto` takes for this panel when a default network for it exists (the
+    plate for a panel wider than 0.05 L), else None (the beam network answers, with a warning
+    from :func:`truth_reason`). Only when neither --checkpoint nor --truth is given."""
+    if args.checkpoint is not None or args.truth is not None:
+        return None
+    from .. import surrogate
+    from ..truth.choice import choose_truth
+
+    beam = peek_beam(args)
+    if beam is None:
+        return None
+    try:
+        model, _ = choose_truth(beam, "auto")
+        if model != "beam":
+            surrogate.default_checkpoint(args.joints, model,
+                                         getattr(args, "objective", None) or "eigenvalue")
+            return model
+    except BadInput:           # no default network for that truth: the beam network, warned
+        pass
+    return None
+
+
+def truth_reason(beam, sur, asked) -> tuple[str, str | None]:
+    """Why the prediction follows its checkpoint's truth, and a warning when ``--truth auto``
+    (the default) would take another for this panel: a beam network's answer for a panel wider
+    than 0.05 L follows the beam's physics, which the plate's differs from (issue 16)."""
+    from ..truth.choice import choose_truth
+
+    if asked is not None:
+        return f"--truth {asked} as asked (checkpoint {sur.name})", None
+    model, why = choose_truth(beam, "auto")
+    if model == sur.truth:
+        return f"{why}; checkpoint {sur.name}", None
+    return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
+            f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
+            f"faithful truth is the {model} (`--truth auto`), but no {model} network is "
+            f"shipped, so this answer follows the {sur.truth} physics (on the paper's wide "
+            "panels the beam is a median 2-15 % off the plate on modes 1-4, docs/truth.md); "
+            f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
+
+
 def predict_command(args) -> int:
     import time
 
-    sur = load_surrogate(args)
+    sur = load_surrogate(args, auto_network_truth(args))
     # refuses what `prbdm truth --model TRUTH` refuses, with the same message
     beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
     out = predict_one(sur, beam, args.allow_extrapolation)
     out["time_s"] = time.perf_counter() - t0
     out["input"] = info
+    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth)
+    if wrong_physics:
+        out["warnings"].append(wrong_physics)
     for w in out["warnings"]:
         sys.stderr.write(f"prbdm predict: warning: {w}\n")
     if args.json:
