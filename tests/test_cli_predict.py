@@ -62,8 +62,8 @@ def assert_bad(rc, out, err, *words):
         assert w in lines[0], (w, lines[0])
 
 
-def test_predict_json_and_text(capsys, beam_file):
-    ck = str(tiny_checkpoint())
+def test_predict_json_and_text(capsys, beam_file, tiny_set):
+    ck = str(tiny_checkpoint(tiny_set))
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ck, "--json")
     assert rc == 0, err
     assert out.count("\n") == 1
@@ -90,7 +90,7 @@ def test_predict_json_and_text(capsys, beam_file):
     assert rc == 0 and "gamma:" in out and "no FEM" in out and "beam-n2" in out
 
 
-def test_predict_without_fem_or_torch_and_fast(beam_file, tmp_path):
+def test_predict_without_fem_or_torch_and_fast(beam_file, tmp_path, tiny_set):
     """A fresh interpreter: no scikit-fem, no torch (nor the torch network's module), on the
     answer and on the refusal of a damaged checkpoint; the whole run (start-up included) well
     under 1 s of CPU time (the child's user + system time: wall time on a shared machine
@@ -107,7 +107,7 @@ def test_predict_without_fem_or_torch_and_fast(beam_file, tmp_path):
     best = math.inf
     for _ in range(2):                  # best of two: the first may pay for a cold disk cache
         r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        r = subprocess.run(cmd + ["--checkpoint", str(tiny_checkpoint())], capture_output=True,
+        r = subprocess.run(cmd + ["--checkpoint", str(tiny_checkpoint(tiny_set))], capture_output=True,
                            text=True, timeout=120)
         r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         best = min(best, r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime)
@@ -115,7 +115,7 @@ def test_predict_without_fem_or_torch_and_fast(beam_file, tmp_path):
     assert json.loads(r.stdout)["gamma"]
     assert best < 1.0, f"prbdm predict took {best:.2f} s of CPU time"
     damaged = tmp_path / "damaged.safetensors"
-    data = bytearray(tiny_checkpoint().read_bytes())
+    data = bytearray(tiny_checkpoint(tiny_set).read_bytes())
     data[-40:-20] = bytes(20)
     damaged.write_bytes(bytes(data))
     r = subprocess.run(cmd + ["--checkpoint", str(damaged)], capture_output=True, text=True,
@@ -123,17 +123,17 @@ def test_predict_without_fem_or_torch_and_fast(beam_file, tmp_path):
     assert r.returncode == 2 and "weights_sha256" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_predict_ood_warning(capsys, beam_file):
+def test_predict_ood_warning(capsys, beam_file, tiny_set):
     rc, out, err = run(capsys, "predict", beam_file(NOTCH), "--joints", 2, "--checkpoint",
-                       str(tiny_checkpoint()), "--json")
+                       str(tiny_checkpoint(tiny_set)), "--json")
     assert rc == 0
     o = json.loads(out)
     assert o["warnings"] and "outside the training range" in o["warnings"][0]
     assert err.startswith("prbdm predict: warning: feature log_")
 
 
-def test_predict_bad_input(capsys, beam_file, tmp_path):
-    ck = str(tiny_checkpoint())
+def test_predict_bad_input(capsys, beam_file, tmp_path, tiny_set):
+    ck = str(tiny_checkpoint(tiny_set))
     assert_bad(*run(capsys, "predict", str(tmp_path / "nope.json"), "--joints", 2,
                     "--checkpoint", ck), "BEAM", "no such file")
     assert_bad(*run(capsys, "predict", beam_file(text="{"), "--joints", 2, "--checkpoint", ck),
@@ -156,9 +156,9 @@ def test_predict_bad_input(capsys, beam_file, tmp_path):
                "no trained surrogate checkpoint")
 
 
-def test_predict_default_checkpoint(capsys, beam_file, tmp_path, monkeypatch):
+def test_predict_default_checkpoint(capsys, beam_file, tmp_path, monkeypatch, tiny_set):
     monkeypatch.setenv("PRBDM_CHECKPOINTS", str(tmp_path))
-    shutil.copy(tiny_checkpoint(), tmp_path / "beam-n2.safetensors")
+    shutil.copy(tiny_checkpoint(tiny_set), tmp_path / "beam-n2.safetensors")
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--json")
     assert rc == 0, err
     assert json.loads(out)["checkpoint"]["path"] == str(tmp_path / "beam-n2.safetensors")
@@ -173,8 +173,8 @@ def test_predict_shipped_checkpoint(capsys, beam_file):
     assert o["checkpoint"]["name"] == "beam-n4.safetensors" and len(o["gamma"]) == 5
 
 
-def test_compare_runs(capsys, beam_file):
-    ck = str(tiny_checkpoint())
+def test_compare_runs(capsys, beam_file, tiny_set):
+    ck = str(tiny_checkpoint(tiny_set))
     rc, out, err = run(capsys, "compare", beam_file(), "--joints", 2, "--checkpoint", ck,
                        "--starts", 4, "--refine-iter", 5, "--json")
     assert rc == 0, err
@@ -210,11 +210,11 @@ def test_shared_constants_have_one_torch_free_home():
     assert dataset.DEFAULT_STARTS is constants.DEFAULT_STARTS
 
 
-def test_predict_output_exports(capsys, beam_file, tmp_path):
+def test_predict_output_exports(capsys, beam_file, tmp_path, tiny_set):
     """`prbdm predict --json` feeds `prbdm export --from`: the exported chain is the network's
     PRBDM (the NumPy PRBDM of predict against the torch model of export), and a prediction made
     for another beam is refused."""
-    ck = str(tiny_checkpoint())
+    ck = str(tiny_checkpoint(tiny_set))
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ck, "--json")
     assert rc == 0, err
     p = json.loads(out)
@@ -254,14 +254,14 @@ def test_predict_output_exports(capsys, beam_file, tmp_path):
 
 # ------------------------------------------------------------------------------------ objectives
 def test_objective_picks_the_checkpoint_and_a_mismatch_is_refused(capsys, beam_file, tmp_path,
-                                                                 monkeypatch):
+                                                                 monkeypatch, tiny_set):
     """--objective frequency looks for TRUTH-nJOINTS-frequency; a checkpoint trained for the other
     objective, or an unknown objective, is exit 2 naming the choices (issue 18)."""
     from prbdm import surrogate as sg
 
     assert sg.checkpoint_name(4, "beam", "frequency") == "beam-n4-frequency.safetensors"
     assert sg.checkpoint_name(4, "beam") == "beam-n4.safetensors"
-    ckpt = tiny_checkpoint()                                       # trained on the paper's loss
+    ckpt = tiny_checkpoint(tiny_set)                                       # trained on the paper's loss
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ckpt,
                        "--objective", "frequency")
     assert rc == 2 and "trained for the 'eigenvalue' objective" in err
@@ -281,14 +281,14 @@ def test_objective_picks_the_checkpoint_and_a_mismatch_is_refused(capsys, beam_f
 
 
 def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
-        capsys, beam_file, tmp_path, monkeypatch):
+        capsys, beam_file, tmp_path, monkeypatch, tiny_set):
     """Without --truth: a strip is answered by the beam network quietly; a wide panel by a plate
     network when one is found, else by the beam network with a warning that names the plate
     and the remedy (issue 16 item 5; JSON `truth` and `truth_reason`)."""
     folder = tmp_path / "ckpts"
     folder.mkdir()
-    shutil.copy(tiny_checkpoint(), folder / "beam-n2.safetensors")
-    shutil.copy(tiny_checkpoint().with_suffix(".json"), folder / "beam-n2.json")
+    shutil.copy(tiny_checkpoint(tiny_set), folder / "beam-n2.safetensors")
+    shutil.copy(tiny_checkpoint(tiny_set).with_suffix(".json"), folder / "beam-n2.json")
     monkeypatch.setenv("PRBDM_CHECKPOINTS", str(folder))
     strip = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.004})
     rc, out, err = run(capsys, "predict", strip, "--joints", 2, "--json")
@@ -301,17 +301,17 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     assert "--truth plate" in r["warnings"][-1]
     # a plate network in the folder is taken for the wide panel (a copy: its metadata still says
     # beam, so the answer names that too)
-    shutil.copy(tiny_checkpoint(), folder / "plate-n2.safetensors")
-    shutil.copy(tiny_checkpoint().with_suffix(".json"), folder / "plate-n2.json")
+    shutil.copy(tiny_checkpoint(tiny_set), folder / "plate-n2.safetensors")
+    shutil.copy(tiny_checkpoint(tiny_set).with_suffix(".json"), folder / "plate-n2.json")
     rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("plate-n2.safetensors")
 
 
 # ------------------------------------------------------------------------ no silent wrong answers
-def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path):
+def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_set):
     """64 bytes overwritten in the weights: exit 2 naming the file, with and without --json."""
     bad = tmp_path / "damaged.safetensors"
-    data = bytearray(SHIPPED.read_bytes() if SHIPPED.is_file() else tiny_checkpoint().read_bytes())
+    data = bytearray(SHIPPED.read_bytes() if SHIPPED.is_file() else tiny_checkpoint(tiny_set).read_bytes())
     data[-200:-136] = bytes(range(64))
     bad.write_bytes(bytes(data))
     for extra in ((), ("--json",)):
@@ -319,12 +319,12 @@ def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path):
                         "--checkpoint", bad, *extra), "damaged.safetensors", "weights_sha256")
 
 
-def _broken_checkpoint(tmp_path):
+def _broken_checkpoint(tmp_path, root):
     """The tiny checkpoint with its last frequency output's bias far off, saved (and hashed) as
     if trained so: it loads, and predicts nonsense for every beam."""
     from prbdm import surrogate as sg
 
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(root))
     last = max((k for k in tensors if k.endswith(".bias")), key=lambda k: int(k.split(".")[-2]))
     b = tensors[last].copy()
     b[-1] += 1e4
@@ -332,12 +332,12 @@ def _broken_checkpoint(tmp_path):
     return sg.save_checkpoint(tmp_path / "broken.safetensors", dict(tensors, **{last: b}), meta)
 
 
-def test_predict_implausible_is_an_error(capsys, beam_file, tmp_path):
+def test_predict_implausible_is_an_error(capsys, beam_file, tmp_path, tiny_set):
     """Never a printed nan or 1e142: exit 1 and one line for a beam inside the training range
     (the network's fault), exit 2 for one outside it (the input's)."""
     from prbdm import surrogate as sg
 
-    ck = _broken_checkpoint(tmp_path)
+    ck = _broken_checkpoint(tmp_path, tiny_set)
     sur = sg.load_checkpoint(ck)
     # a beam inside the training range: the middle of each feature's range is not a beam, so
     # pick the training-like beam with the fewest out-of-range features
@@ -355,7 +355,7 @@ def test_predict_implausible_is_an_error(capsys, beam_file, tmp_path):
                     "--json"), "implausible prediction", "outside its training range")
 
 
-def test_predict_json_never_prints_a_traceback(capsys, beam_file, monkeypatch):
+def test_predict_json_never_prints_a_traceback(capsys, beam_file, monkeypatch, tiny_set):
     """Whatever fails inside the command is one line and exit 1, with --json too."""
     from prbdm.commands import predict
 
@@ -363,20 +363,20 @@ def test_predict_json_never_prints_a_traceback(capsys, beam_file, monkeypatch):
         raise ValueError("Out of range float values are not JSON compliant\nsecond line")
     monkeypatch.setattr(predict, "print_json", boom)
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint",
-                       tiny_checkpoint(), "--json")
+                       tiny_checkpoint(tiny_set), "--json")
     assert rc == 1 and out == "" and "Traceback" not in err
     lines = err.strip("\n").split("\n")
     assert lines[-1].startswith("prbdm predict: error: internal error (ValueError): Out of range")
     assert all(line.startswith("prbdm predict: warning: ") for line in lines[:-1])
 
 
-def test_predict_and_compare_refuse_extrapolating_a_fixed_feature(capsys, beam_file, tmp_path):
+def test_predict_and_compare_refuse_extrapolating_a_fixed_feature(capsys, beam_file, tmp_path, tiny_set):
     """A plate network trained on nu = 0.28 only, asked about aluminium (nu = 0.33): exit 2
     naming the feature, its value and the trained range; --allow-extrapolation forces it with a
     warning."""
     from test_surrogate import plate_checkpoint
 
-    ck = plate_checkpoint(tmp_path)
+    ck = plate_checkpoint(tmp_path, tiny_set)
     beam = random_beam(5, 1).to_dict()
     beam["material"] = {"E": 69e9, "rho": 2700.0, "nu": 0.33}
     for extra in ((), ("--json",)):
@@ -410,7 +410,7 @@ def _fuzz_cases():
 
 
 @pytest.mark.parametrize("case", _fuzz_cases())
-def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case):
+def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case, tiny_set):
     """Random byte ranges of a copy of a checkpoint overwritten (seeded): every outcome is exit 0
     with finite, sorted, positive frequencies, or exit 2 (or 1) with one line and no traceback.
     Half the cases hit the header (JSON, metadata), half anywhere; every third case uses a copy
@@ -420,7 +420,7 @@ def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case):
     from prbdm import surrogate as sg
 
     rng = np.random.default_rng(1000 + case)
-    src = tiny_checkpoint()
+    src = tiny_checkpoint(tiny_set)
     if case % 3 == 2:
         tensors, meta = sg.read_checkpoint(src)
         meta.pop("weights_sha256")

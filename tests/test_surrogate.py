@@ -2,19 +2,16 @@
 network), the NumPy PRBDM against prbdm.model, checkpoint round trip and metadata, the
 out-of-distribution warning, and training end to end on a tiny data set.
 
-The tiny data set (12 beams, 2 joints) and its checkpoint are made once per test session by
-:func:`tiny` (also used by tests/test_cli_predict.py).
+The tiny data set (12 beams, 2 joints) and its checkpoint are made once per test session by the
+``tiny_set`` fixture (tests/conftest.py; also used by tests/test_cli_predict.py).
 """
 from __future__ import annotations
 
-import atexit
 import copy
-import functools
 import json
 import shutil
 import subprocess
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
@@ -36,25 +33,9 @@ TRAIN = REPO / "training" / "train_surrogate.py"
 SHIPPED = sg.PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
 
 
-@functools.lru_cache(maxsize=None)
-def tiny() -> Path:
-    """A 12-beam, 2-joint data set and a checkpoint trained on it for a few epochs (all three
-    modes), in a temporary folder removed at exit: ROOT/data, ROOT/ckpt/beam-n2.safetensors."""
-    root = Path(tempfile.mkdtemp(prefix="prbdm-surrogate-test-"))
-    atexit.register(shutil.rmtree, root, True)
-    D.generate(root / "data", 12, D.make_spec(joints=2, starts=2, seed=3), workers=0,
-               progress="none")
-    ckpt = root / "ckpt" / "beam-n2.safetensors"
-    run = subprocess.run([sys.executable, str(TRAIN), f"--data={root / 'data'}", f"--out={ckpt}",
-                          "--max_epochs=4", "--width=32", "--depth=2", "--quiet=True",
-                          "--batch_size=4"], capture_output=True, text=True, cwd=REPO,
-                         timeout=300)
-    assert run.returncode == 0, run.stderr[-3000:]
-    return root
-
-
-def tiny_checkpoint() -> Path:
-    return tiny() / "ckpt" / "beam-n2.safetensors"
+def tiny_checkpoint(root: Path) -> Path:
+    """The tiny checkpoint in the ``tiny_set`` fixture's folder (tests/conftest.py)."""
+    return root / "ckpt" / "beam-n2.safetensors"
 
 
 def _scaled(beam: Beam, width=1.0, thickness=1.0, length=1.0, E=1.0, rho=1.0) -> Beam:
@@ -220,8 +201,8 @@ def test_truth_prbdm_and_fit_invariances():
     assert fit.loss_percent == pytest.approx(fit0.loss_percent, rel=1e-4)
 
 
-def test_prediction_invariances():
-    sur = sg.load_checkpoint(tiny_checkpoint())
+def test_prediction_invariances(tiny_set):
+    sur = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     beams = [random_beam(5, i) for i in range(5)]
     p0 = sur.predict(beams, warn=False)
     for s in SCALINGS:
@@ -253,8 +234,8 @@ def _torch_outputs(net, src, bb, select_poses):
                            torch.as_tensor(src.poses), src.modes, select_poses)
 
 
-def test_checkpoint_round_trip(tmp_path):
-    src = sg.load_checkpoint(tiny_checkpoint())
+def test_checkpoint_round_trip(tmp_path, tiny_set):
+    src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     meta = src.metadata
     for key in REQUIRED_META:
         assert key in meta, key
@@ -267,14 +248,14 @@ def test_checkpoint_round_trip(tmp_path):
     assert {"loss_median", "loss_p95", "freq_err_median"} <= set(meta["test"])
     assert len(meta["features"]["min"]) == len(meta["features"]["names"])
     # the hash is the data set's
-    table = D.read_table(tiny() / "data", status="ok").to_pandas()
+    table = D.read_table(tiny_set / "data", status="ok").to_pandas()
     assert sg.dataset_hash(table) == ds["sha256"]
     # weights -> torch network -> save -> load: same predictions, and the torch forward agrees
     net = SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
                           width=meta["network"]["width"], depth=meta["network"]["depth"],
                           k_mode=src.k_mode, hypotheses=src.hypotheses)
     assert src.hypotheses > 1
-    tensors, _ = sg.read_checkpoint(tiny_checkpoint())
+    tensors, _ = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     net.load_weights(tensors)
     path = sg.save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
         k: v for k, v in meta.items() if k not in ("format", "format_version")})
@@ -310,11 +291,11 @@ def test_checkpoint_loading_refuses_bad_files(tmp_path):
         sg.load_checkpoint(evil)
 
 
-def test_default_checkpoint_lookup(tmp_path, monkeypatch):
+def test_default_checkpoint_lookup(tmp_path, monkeypatch, tiny_set):
     monkeypatch.setenv("PRBDM_CHECKPOINTS", str(tmp_path))
     with pytest.raises(BadInput, match="no trained surrogate checkpoint"):
         sg.default_checkpoint(2, "plate")
-    shutil.copy(tiny_checkpoint(), tmp_path / "beam-n2.safetensors")
+    shutil.copy(tiny_checkpoint(tiny_set), tmp_path / "beam-n2.safetensors")
     assert sg.default_checkpoint(2, "beam") == tmp_path / "beam-n2.safetensors"
     p = sg.predict([random_beam(0, 1)], joints=2, warn=False)
     assert p.gamma.shape == (1, 3)
@@ -336,8 +317,8 @@ def test_shipped_checkpoint():
 
 
 # ------------------------------------------------------------------------ prediction API
-def test_predict_from_features_and_ood_warning():
-    sur = sg.load_checkpoint(tiny_checkpoint())
+def test_predict_from_features_and_ood_warning(tiny_set):
+    sur = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     beams = [random_beam(7, i) for i in range(4)]
     pb = sur.predict(beams, warn=False)
     pf = sur.predict(sur.features(beams), warn=False)
@@ -367,17 +348,17 @@ def test_predict_from_features_and_ood_warning():
         sur.predict([notch], warn=False)
 
 
-def test_training_log_and_comparison_recorded():
-    log = tiny_checkpoint().with_suffix(".log").read_text()
+def test_training_log_and_comparison_recorded(tiny_set):
+    log = tiny_checkpoint(tiny_set).with_suffix(".log").read_text()
     assert "selected mode:" in log and "test (" in log
-    meta = json.loads(tiny_checkpoint().with_suffix(".json").read_text())
+    meta = json.loads(tiny_checkpoint(tiny_set).with_suffix(".json").read_text())
     for mode, res in meta["training"]["comparison"].items():
         assert {"loss_mean", "loss_median", "loss_p95", "freq_err_median"} <= set(res["val"])
         assert res["epochs"] <= 4
 
 
-def test_threaded_prediction_equals_one_thread(monkeypatch):
-    sur = sg.load_checkpoint(tiny_checkpoint())
+def test_threaded_prediction_equals_one_thread(monkeypatch, tiny_set):
+    sur = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     monkeypatch.setattr(sp, "PIECE", 7)          # several pieces from a small batch
     beams = sg.BeamBatch.from_beams([random_beam(5, i) for i in range(30)])
     one = sur.predict(beams, warn=False, threads=1)
@@ -407,16 +388,16 @@ def test_gauss_select_poses():
     assert abs(f[[1, 4]].mean() - f.mean()) < 0.3 * abs(f[[0, -1]].mean() - f.mean())
 
 
-def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path):
+def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path, tiny_set):
     """A checkpoint written before ensembles (no members, no select_poses) loads as one network
     that compares candidates on the first and last poses, as it was trained and measured."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     for key in ("members", "select_poses"):
         meta["network"].pop(key)
     old = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "old.safetensors", tensors, {
         k: v for k, v in meta.items() if k not in ("format", "format_version")}))
     assert old.n_members == 1 and old.select_poses == sg.SELECT_POSES
-    new = sg.load_checkpoint(tiny_checkpoint())
+    new = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     assert new.select_poses == sg.gauss_select_poses(len(new.poses))
     beams = [random_beam(6, i) for i in range(30)]
     a, b = old.predict(beams, warn=False), new.predict(beams, warn=False)
@@ -424,13 +405,13 @@ def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path):
     np.testing.assert_array_equal(a.extra["gamma_candidates"], b.extra["gamma_candidates"])
 
 
-def test_ensemble_checkpoint(tmp_path):
+def test_ensemble_checkpoint(tmp_path, tiny_set):
     """Two members saved as one checkpoint: the candidates of both, side by side, the mean
     frequency prediction; NumPy inference equals the torch ensemble."""
-    src = sg.load_checkpoint(tiny_checkpoint())
+    src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     meta = dict(src.metadata)
     net_meta = meta["network"]
-    tensors, _ = sg.read_checkpoint(tiny_checkpoint())
+    tensors, _ = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     torch.manual_seed(0)
     members = []
     for j in range(2):
@@ -498,11 +479,11 @@ def test_physics_training_on_a_truth_only_set(tmp_path):
     assert np.all(p.k > 0) and abs(p.gamma.sum() - 1) < 1e-12
 
 
-def test_evaluate_surrogate_script(tmp_path):
+def test_evaluate_surrogate_script(tmp_path, tiny_set):
     """training/evaluate_surrogate.py end to end on the tiny set: every row, JSON written."""
     out = tmp_path / "eval.json"
     run = subprocess.run([sys.executable, str(REPO / "training" / "evaluate_surrogate.py"),
-                          f"--checkpoint={tiny_checkpoint()}", f"--data={tiny() / 'data'}",
+                          f"--checkpoint={tiny_checkpoint(tiny_set)}", f"--data={tiny_set / 'data'}",
                           "--split=test", "--refine_count=1", "--refine_iter=3", "--fit_batch=2",
                           "--refit_count=1", "--throughput_count=20", f"--json_out={out}"],
                          capture_output=True, text=True, cwd=REPO, timeout=300)
@@ -513,16 +494,16 @@ def test_evaluate_surrogate_script(tmp_path):
         assert key in res, key
     from prbdm.fit import REFINE_CANDIDATES
 
-    hyp = sg.load_checkpoint(tiny_checkpoint()).hypotheses
+    hyp = sg.load_checkpoint(tiny_checkpoint(tiny_set)).hypotheses
     assert res["refined_candidates"]["starts"] == min(hyp, REFINE_CANDIDATES) + 4
     assert res["refit"]["starts"] == 2 and res["network"]["loss_median"] >= 0
 
 
-def test_with_members_uses_the_first_members(tmp_path):
+def test_with_members_uses_the_first_members(tmp_path, tiny_set):
     """``with_members(k)``: the first k members of an ensemble, as their own checkpoint would
     predict; bad counts are refused."""
-    src = sg.load_checkpoint(tiny_checkpoint())
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     meta.pop("format"), meta.pop("format_version")
     ens = {**{f"members.0.{k}": v for k, v in tensors.items()},
            **{f"members.1.{k}": v * 1.01 for k, v in tensors.items()}}
@@ -550,8 +531,8 @@ def _raw_save(path, tensors, meta):
     return path
 
 
-def test_weights_sha256_written_and_checked(tmp_path):
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+def test_weights_sha256_written_and_checked(tmp_path, tiny_set):
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     assert meta["weights_sha256"] == sg.weights_sha256(tensors)
     # the hash does not depend on the order or the layout of the file
     assert sg.weights_sha256(dict(reversed(list(tensors.items())))) == meta["weights_sha256"]
@@ -579,10 +560,10 @@ def _refused(tmp_path, tensors, meta, *words):
     return text
 
 
-def test_checkpoint_checks_on_load(tmp_path):
+def test_checkpoint_checks_on_load(tmp_path, tiny_set):
     """Non-finite weights, wrong shapes, weights that the metadata does not describe and
     inconsistent metadata are refused, naming the file and the weight or field."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     first = sorted(k for k in tensors if k.endswith(".weight"))[0]
     for bad in (np.nan, np.inf):
         t = {k: v.copy() for k, v in tensors.items()}
@@ -633,11 +614,11 @@ def test_shipped_checkpoints_are_hashed_and_clean(joints):
     assert "/work/" not in json.dumps(meta) and "/home/" not in json.dumps(meta)
 
 
-def plate_checkpoint(tmp_path, nu=0.28) -> Path:
+def plate_checkpoint(tmp_path, root, nu=0.28) -> Path:
     """The tiny network made into a plate-truth checkpoint trained on one Poisson's ratio: the
     plate features (log_aspect, nu) added with zero weights, nu's training range the single value
     ``nu`` (as a data set of one material gives)."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(root))
     meta = json.loads(json.dumps(meta))
     spec = dict(meta["features"]["spec"], truth="plate")
     meta["truth"], meta["features"]["spec"] = "plate", spec
@@ -659,8 +640,8 @@ def _with_nu(beam, nu):
                 material=Material(E=m.E, rho=m.rho, nu=nu))
 
 
-def test_extrapolation_of_a_fixed_feature_is_refused(tmp_path):
-    sur = sg.load_checkpoint(plate_checkpoint(tmp_path))
+def test_extrapolation_of_a_fixed_feature_is_refused(tmp_path, tiny_set):
+    sur = sg.load_checkpoint(plate_checkpoint(tmp_path, tiny_set))
     assert [sur.names[j] for j in np.flatnonzero(sur.fixed)] == ["nu"]
     beam = random_beam(5, 1)
     ok = sur.predict([_with_nu(beam, 0.28)], warn=False)
@@ -679,10 +660,10 @@ def test_extrapolation_of_a_fixed_feature_is_refused(tmp_path):
     assert not sur.fixed[:-1].any()
 
 
-def test_physical_problems_flag_broken_predictions(tmp_path):
+def test_physical_problems_flag_broken_predictions(tmp_path, tiny_set):
     """A prediction outside physical ranges is flagged and explained, never passed on silently;
     a network whose frequency head is far off (a damaged bias) is caught."""
-    sur = sg.load_checkpoint(tiny_checkpoint())
+    sur = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     beams = [random_beam(5, i) for i in range(6)]
     good = sur.predict(beams, warn=False)
     assert not good.implausible.any() and good.problems == []
@@ -703,7 +684,7 @@ def test_physical_problems_flag_broken_predictions(tmp_path):
         assert bad.tolist() == [False, False, True, False, False, False], field_
         assert texts[0].startswith("beam 2: implausible prediction: ") and word in texts[0]
     # a damaged checkpoint (hash recomputed, so it loads): the frequency head's bias far off
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint())
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     last = max((k for k in tensors if k.endswith(".bias")), key=lambda k: int(k.split(".")[-2]))
     b = tensors[last].copy()
     b[-1] += 1e4
