@@ -8,7 +8,7 @@
 
 Part 1: (beam x pose) eigen-evaluations per second of ``model.eigenvalues_unit_k`` (links, joint
 stiffness, M(theta) at every pose, symmetric eigenvalues), for n = 3, 4, 5, 10, 20 joints at batch
-sizes 1 and 4096 random beams (SPEC §1 generator, p = 10), one random gamma per beam, the paper's
+sizes 1 and 4096 random beams (docs/conventions.md §1 generator, p = 10), one random gamma per beam, the paper's
 poses (9, 6, 5, 1, 1 poses), float64, torch's default thread count. ``fwd`` is inference
 (``torch.no_grad``); ``fwd+bwd`` adds the backward pass to gamma (what a fit pays per step).
 Building the beam tensors is set-up and not timed. Time per case: the best of several repeats.

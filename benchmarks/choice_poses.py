@@ -8,7 +8,7 @@ in-memory ensemble, as ``train_surrogate.py --members=2`` does) and each choice 
 and last poses (format-1 checkpoints), the two Gauss poses (:func:`prbdm.surrogate.gauss_select_poses`,
 the default since format 2), all poses — the prediction runs through
 :meth:`prbdm.surrogate.Surrogate.predict` and its PRBDM is re-evaluated against the data set's
-truth (SPEC §3 loss, %). Printed: median and 95th percentile of the loss, the share of beams on
+truth (docs/conventions.md §3 loss, %). Printed: median and 95th percentile of the loss, the share of beams on
 which the rule keeps the same candidate as the all-pose rule, and the median loss of the best
 candidate with SCFs projected on the *true* frequencies (what the candidates can reach).
 """

@@ -55,7 +55,7 @@ def _row(label, r):
 
 
 class _without_rotary_inertia:
-    """The paper's mass matrix: its reference code dropped the links' rotary inertia J (SPEC §3).
+    """The paper's mass matrix: its reference code dropped the links' rotary inertia J (docs/conventions.md §3).
     Reproduced here only to explain Table 4; the product never does this."""
 
     def __enter__(self):

@@ -61,7 +61,7 @@ What keeps the conditioning in check (each verified in the code named):
   at relative gaps from 1e-2 down to an exact crossing (1e-15); the pair's sum matches finite
   differences at every gap, each eigenvalue alone where it is smooth (rows "near-equal
   eigenvalues"). Eigenvectors are never differentiated.
-- **M is SPD at every pose** (SPEC §3): the rotary term `Σ_{j>=max(k,l)} J_j` is itself SPD, so
+- **M is SPD at every pose** (docs/conventions.md §3): the rotary term `Σ_{j>=max(k,l)} J_j` is itself SPD, so
   poses at and beyond n·theta = pi/2 stay solvable (cond(M) above; the library accepts them, `prbdm
   eval` warns); the paper's pose sets stay inside the limit for every n of the suite.
 - **Span integrals about the span midpoint, `log1p` log-mean with a series near equal widths**

@@ -1,7 +1,7 @@
 """Classical static pseudo-rigid-body models (PRBMs), used as dynamic models in prbdm's own chain.
 
 Two textbook PRBMs of a cantilever loaded at its tip, both designed for uniform beams and static
-large deflection, are here cut from the beam like any prbdm PRBDM (SPEC §3: link masses, centres
+large deflection, are here cut from the beam like any prbdm PRBDM (docs/conventions.md §3: link masses, centres
 and rotary inertias are the exact integrals of the real planform) and given their own joint
 springs instead of an SCF times a stiffness law:
 

@@ -1,4 +1,4 @@
-"""The ``prbdm`` command line (SPEC §4).
+"""The ``prbdm`` command line (docs/conventions.md §4).
 
 Each subcommand lives in its own module with two functions, ``add_arguments(parser)`` and
 ``run(args) -> int``; the module is imported only when its subcommand runs, so ``prbdm truth``

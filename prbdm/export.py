@@ -20,7 +20,7 @@ Conventions (docs/export.md has the full list):
   PRBDM's frequencies at that pose; ``springref="zero"`` puts the rest at the straight beam
   instead (same stiffness).
 - Inertia: each link is a thin lamina in its x-y plane. About the centre of mass, in body axes:
-  ``I_yy = J_j`` (exactly the PRBDM's rotary inertia: bending plane, SPEC §3),
+  ``I_yy = J_j`` (exactly the PRBDM's rotary inertia: bending plane, docs/conventions.md §3),
   ``I_xx = ∫ y^2 dm`` (rolling about the link axis; ``rho t ∫ (2/3) w^3 dx``),
   ``I_zz = I_xx + I_yy`` (perpendicular axis theorem). The section's own ``m t^2 / 12`` is dropped on every axis, as the PRBDM drops
   it from J. Products of inertia vanish (symmetry about x; lamina in z = 0).

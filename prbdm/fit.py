@@ -1,4 +1,4 @@
-"""Optimised PRBDM fits (SPEC §3, Eq. 13): batched multistart Levenberg-Marquardt in torch.
+"""Optimised PRBDM fits (docs/conventions.md §3, Eq. 13): batched multistart Levenberg-Marquardt in torch.
 
 What is minimised is the paper's loss, ``100/m Σ_i ||lam_i(gamma, k_i)[:r] - lam_T|| / ||lam_T||``,
 over the link fractions gamma and one SCF k_i per pose. Three facts about its structure make the

@@ -1,4 +1,4 @@
-"""The beam: a symmetric planform of uniform thickness, clamped at x = 0 (SPEC §1).
+"""The beam: a symmetric planform of uniform thickness, clamped at x = 0 (docs/conventions.md §1).
 
 The planform is given by its half-width ``w(x)``, piecewise linear through stations
 ``(x_k, w_k)``; the beam bends out of plane (deflection along z). Everything here is NumPy only, so
@@ -59,7 +59,7 @@ class Material:
         return {"E": float(self.E), "rho": float(self.rho), "nu": float(self.nu)}
 
 
-#: AISI 4340 steel, the paper's material and the default (SPEC §1).
+#: AISI 4340 steel, the paper's material and the default (docs/conventions.md §1).
 STEEL = Material()
 
 
@@ -152,7 +152,7 @@ class Beam:
 
     # ------------------------------------------------------------------ conversions
     def to_dict(self) -> dict:
-        """The beam-file dictionary of SPEC §1."""
+        """The beam-file dictionary of docs/conventions.md §1."""
         d = {"x": self.x.tolist(), "half_width": self.half_width.tolist(),
              "thickness": self.thickness, "material": self.material.to_dict()}
         if self.name:
@@ -167,7 +167,7 @@ class Beam:
 
     @classmethod
     def from_dict(cls, data) -> "Beam":
-        """Build from a beam-file dictionary (SPEC §1). Unknown keys are an error."""
+        """Build from a beam-file dictionary (docs/conventions.md §1). Unknown keys are an error."""
         if not isinstance(data, dict):
             raise BadInput("beam: must be a JSON object with keys x, half_width, thickness")
         allowed = {"name", "x", "half_width", "thickness", "material"}
@@ -456,7 +456,7 @@ def simplify_planform(beam: Beam, rtol: float = SIMPLIFY_RTOL,
 
 
 def load_beam(source) -> Beam:
-    """Read a beam file (SPEC §1): a path, ``'-'`` for standard input, or a dict."""
+    """Read a beam file (docs/conventions.md §1): a path, ``'-'`` for standard input, or a dict."""
     if isinstance(source, Beam):
         return source
     if isinstance(source, dict):

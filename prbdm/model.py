@@ -1,4 +1,4 @@
-"""The differentiable nR-PRBDM (SPEC §3): links cut from the beam, M(theta), K, eigenvalues, loss.
+"""The differentiable nR-PRBDM (docs/conventions.md §3): links cut from the beam, M(theta), K, eigenvalues, loss.
 
 Everything is batched over leading dimensions and differentiable in torch:
 

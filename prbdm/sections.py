@@ -1,6 +1,6 @@
 """Exact integrals of a piecewise-linear planform over spans [a, b], in torch.
 
-For a span of the beam these give the link mass, centre of mass and rotary inertia (SPEC §3), and
+For a span of the beam these give the link mass, centre of mass and rotary inertia (docs/conventions.md §3), and
 the compliance integral of the ``beam`` stiffness law. They are exact for a piecewise-linear
 half-width, batched over leading dimensions and differentiable with respect to the cut positions.
 

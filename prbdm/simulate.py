@@ -22,7 +22,7 @@ Damping: a first-mode damping ratio ``zeta`` becomes stiffness-proportional damp
 ``D = (2 zeta / omega_1) K`` (diagonal: per-joint viscous), the same in the truth
 (``zeta_r = zeta omega_r / omega_1``), so both have ratio zeta on their first mode.
 
-The truth (:func:`beam_modes`): the Euler-Bernoulli cantilever of SPEC §2 (``b = 2 w``,
+The truth (:func:`beam_modes`): the Euler-Bernoulli cantilever of docs/conventions.md §2 (``b = 2 w``,
 ``I = b t^3/12``, ``A = b t``), solved by :mod:`prbdm.truth`'s beam model (the same solve as
 ``prbdm truth`` and ``prbdm fit``), its mode shapes scaled to unit modal mass in SI. The tip
 motion is the modal superposition ``w(L, t) = sum_r phi_r(L) eta_r(t)`` of its lowest R modes
@@ -188,7 +188,7 @@ class BeamModes:
 
 
 def beam_modes(beam, modes: int = 10, elements: int | None = None) -> BeamModes:
-    """The truth's Euler-Bernoulli model of ``beam`` (:mod:`prbdm.truth.beam`, SPEC §2) as SI
+    """The truth's Euler-Bernoulli model of ``beam`` (:mod:`prbdm.truth.beam`, docs/conventions.md §2) as SI
     modes for a modal superposition: the same solve as ``prbdm truth --model beam`` (``elements``
     is its base mesh, default ``max(120, 12 modes)``), its mode shapes' tip values scaled to unit
     modal mass.

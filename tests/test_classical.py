@@ -131,7 +131,7 @@ def test_batched_equals_single_and_beam_law_scf():
     assert lam.shape == (3, 9, 3)
     for i, b in enumerate(beams):
         np.testing.assert_allclose(lam[i], cl.eigenvalues(b, cl.SU_3R).numpy(), rtol=1e-12)
-    # uniform beam: the beam-law base stiffness is EI / (tributary span), spans from SPEC §3
+    # uniform beam: the beam-law base stiffness is EI / (tributary span), spans from docs/conventions.md §3
     scf = cl.beam_law_scf(uniform(), cl.SU_3R)
     np.testing.assert_allclose(scf, [3.51 * 0.275, 2.99 * 0.375, 2.58 * 0.35], rtol=1e-12)
 

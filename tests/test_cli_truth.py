@@ -1,4 +1,4 @@
-"""``prbdm truth`` on the command line (SPEC §4)."""
+"""``prbdm truth`` on the command line (docs/conventions.md §4)."""
 import json
 import subprocess
 import sys

@@ -1,5 +1,5 @@
 """The beam (prbdm.geometry): validation (BadInput naming the field), JSON and polygon round trips,
-random beams as a pure function of (seed, index) within the ranges of SPEC §1.
+random beams as a pure function of (seed, index) within the ranges of docs/conventions.md §1.
 
 ``BAD_BEAMS`` is shared with tests/test_cli_eval.py, which feeds the same files to ``prbdm eval``.
 """

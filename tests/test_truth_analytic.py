@@ -1,4 +1,4 @@
-"""Analytic truth: the uniform cantilever, cos(a) cosh(a) = -1 (SPEC §2, paper Eqs. 18-20)."""
+"""Analytic truth: the uniform cantilever, cos(a) cosh(a) = -1 (docs/conventions.md §2, paper Eqs. 18-20)."""
 import math
 import subprocess
 import sys

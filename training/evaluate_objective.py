@@ -6,7 +6,7 @@
 The data set is a labelled one of a seed no checkpoint saw (``prbdm dataset generate --seed 1
 --objective frequency``): its fits minimised the data set's objective. For every checkpoint and
 for those fits, over the beams: the worst per-mode frequency error over the poses
-(``max |omega / omega_T - 1|``, %), median and p95, and the paper's loss (SPEC §3, %), median.
+(``max |omega / omega_T - 1|``, %), median and p95, and the paper's loss (docs/conventions.md §3, %), median.
 The target of issue 18: the frequency network's median worst-mode error within 1.5x of the
 frequency fits'. Prints one table; ``--json_out`` also writes it.
 """

@@ -13,7 +13,7 @@ random stream of the same generator); it may also differ in its start count (a t
 training set has none) and labelling batch, nothing else. Measured, on the same beams:
 
 - network: the PRBDM predicted by the checkpoint, re-evaluated against the stored truth
-  (SPEC §3 loss, %): median, p95, mean; the per-mode error of the network's direct truth-frequency
+  (docs/conventions.md §3 loss, %): median, p95, mean; the per-mode error of the network's direct truth-frequency
   prediction (median, p95); time per beam (one batched call, and one beam at a time);
 - fit: the optimised fits stored in the data set (their loss; their time as recorded by the
   labelling worker, and, for ``refit_count`` beams, re-run here with the data set's start count);

@@ -285,7 +285,7 @@ def outputs(net, rows):
 
 def physics_loss(rows, gamma, logk, mu=None):
     """Per-beam ``objective`` [%] of the predicted PRBDM (its own k) against the truth, float64:
-    the paper's loss (SPEC §3) or the frequency objective (prbdm.objectives)."""
+    the paper's loss (docs/conventions.md §3) or the frequency objective (prbdm.objectives)."""
     if mu is None:
         mu = model.eigenvalues_unit_k(beam_rows(rows), gamma.double(), poses_dev, "beam")
     lam = mu * torch.exp(logk.double())[..., None]

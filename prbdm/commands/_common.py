@@ -12,7 +12,7 @@ from ..files import atomic_write  # noqa: F401  (the commands' writer; one home:
 def add_beam_argument(parser):
     from ..geometry import SIMPLIFY_ABOVE, SIMPLIFY_RTOL
 
-    parser.add_argument("beam", metavar="BEAM", help="beam file (JSON, SPEC §1), or - for stdin")
+    parser.add_argument("beam", metavar="BEAM", help="beam file (JSON, docs/conventions.md §1), or - for stdin")
     parser.add_argument("--all-stations", action="store_true",
                         help=f"use every station of BEAM (default: a planform of more than "
                              f"{SIMPLIFY_ABOVE} stations is simplified to within "

@@ -12,7 +12,7 @@ Four ways to get the PRBDM of one beam, side by side:
   and the fit's four fixed starts (:func:`prbdm.fit.refine_starts`), ``--refine-iter``
   iterations (:func:`prbdm.fit.fit_many` with ``init_gamma``).
 
-For each: the loss (SPEC §3, %), the per-mode frequency error (worst over the poses, %) and the
+For each: the loss (docs/conventions.md §3, %), the per-mode frequency error (worst over the poses, %) and the
 time (the computation itself; start-up and imports excluded; ``refined`` excludes the network's
 own time, given on its row).
 

@@ -16,7 +16,7 @@ def add_arguments(parser):
                                 parser_class=type(parser))
     g = sub.add_parser(
         "generate", help="label random beams (truth + fit) into a folder of Parquet parts",
-        description="Label random beams 0..N-1 (SPEC §1) into DIR: geometry, truth frequencies, "
+        description="Label random beams 0..N-1 (docs/conventions.md §1) into DIR: geometry, truth frequencies, "
         "fitted PRBDM, timings, status. Run the same command again to resume after a crash or to "
         "extend the set with a larger --count; different options on an existing DIR are refused.")
     g.add_argument("--out", required=True, metavar="DIR", help="data set folder (created)")

@@ -1,6 +1,6 @@
 """``prbdm eval BEAM --gamma g0,...,gn --k k1,...,km``: eigenfrequencies of a given PRBDM.
 
-SPEC §3 (the model) and §4 (the command line).
+docs/conventions.md §3 (the model) and §4 (the command line).
 
 The PRBDM is given, not fitted: link-length fractions ``gamma`` (n + 1 values summing to 1), one
 stiffness correction factor per pose (``--k``, or a single value for every pose), a stiffness law

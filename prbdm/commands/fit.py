@@ -1,4 +1,4 @@
-"""``prbdm fit BEAM --joints N``: the optimised PRBDM of a beam (SPEC §3 Eq. 13, §4).
+"""``prbdm fit BEAM --joints N``: the optimised PRBDM of a beam (docs/conventions.md §3 Eq. 13, §4).
 
 Computes the beam's truth frequencies (``--truth``; by default ``auto``: the Euler-Bernoulli FEM
 for a strip up to 0.05 L wide, the Kirchhoff plate beyond, :mod:`prbdm.truth.choice`), then fits

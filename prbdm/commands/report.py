@@ -17,6 +17,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from ..constants import OBJECTIVES
 from ..errors import BadInput
 from ._common import positive_int, require
 
@@ -57,6 +58,9 @@ def add_arguments(parser):
                         help="beams of the scaling studies (default 3; 1 with --quick)")
     parser.add_argument("--quick", action="store_true",
                         help="a small, fast run (few beams, short scaling sweeps): for tests")
+    parser.add_argument("--objective", choices=OBJECTIVES, default="eigenvalue",
+                        help="what the fits minimise and which network is measured "
+                             "(beam-n4 or beam-n4-frequency; default: the paper's eigenvalue loss)")
     parser.add_argument("--no-stability", action="store_true",
                         help="do not append the stability suite (benchmarks/stability.py; "
                              "only in a source checkout)")
@@ -72,6 +76,8 @@ def _command(args) -> str:
             parts += [flag, str(value)]
     if args.starts:
         parts += ["--starts", ",".join(map(str, args.starts))]
+    if args.objective != "eigenvalue":
+        parts += ["--objective", args.objective]
     parts += [f for f, on in (("--quick", args.quick), ("--no-stability", args.no_stability)) if on]
     return " ".join(shlex.quote(p) for p in parts)
 
@@ -94,7 +100,7 @@ def run(args) -> int:
         starts=args.starts or ((8,) if q else report.DEFAULT_STARTS),
         single=args.single if args.single is not None else (1 if q else 10),
         scale_beams=args.scale_beams or (1 if q else 3),
-        stability=not args.no_stability,
+        stability=not args.no_stability, objective=args.objective,
         command=_command(args),
         progress=lambda text: sys.stderr.write(f"prbdm report: {text}\n"))
     res = report.write_report(cfg, out)

@@ -1,6 +1,6 @@
 """``prbdm truth BEAM --model analytic|beam|plate [--modes R] [--all-modes] [--json] [--plot FILE]``
 
-Bending natural frequencies of a beam (SPEC §2, §4). Prints a table by default; ``--json`` prints
+Bending natural frequencies of a beam (docs/conventions.md §2, §4). Prints a table by default; ``--json`` prints
 one JSON object (``model``, ``omega``, ``freq_hz``, ``time_s``, ``participation``, ``mesh`` and,
 with ``--all-modes``, ``all_modes``: every computed mode with its ``participation``). ``--plot``
 draws the planform and the kept mode shapes (the idea of the paper's Fig. 13). Never imports torch.

@@ -12,7 +12,7 @@ skip names starting with ``_`` or ``.``, which is why the manifest is ``_manifes
 The package, in the order a run uses it:
 
 - :mod:`.schema` -- the **spec** (:func:`make_spec`): everything that decides a record, the
-  random-beam generator and its seed (SPEC §1), the truth model and its mode count, the PRBDM
+  random-beam generator and its seed (docs/conventions.md §1), the truth model and its mode count, the PRBDM
   (joints, modes, law, poses, starts) and the fit's objective. A later run on the same folder must
   ask for the same spec, or it is refused naming the first differing field. The count is not part
   of the spec: asking for more extends the set. Also the record **columns**.

@@ -153,7 +153,7 @@ COLUMNS = {
     "truth_time_s": ("double", "wall time of the truth solve [s]"),
     "gamma": ("list<double>", "fitted link lengths / L (joints + 1), sum 1"),
     "k": ("list<double>", "fitted stiffness correction factor per pose"),
-    "loss_percent": ("double", "the paper's loss of the fit, SPEC §3 [%], whatever objective "
+    "loss_percent": ("double", "the paper's loss of the fit, docs/conventions.md §3 [%], whatever objective "
                      "was minimised"),
     "gamma_spread": ("double", "spread of gamma among near-best starts (ambiguity of the label)"),
     "n_near_best": ("int64", "starts within 1 % of the best loss"),

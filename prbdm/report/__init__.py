@@ -7,7 +7,7 @@ Modules: :mod:`~prbdm.report.measure` (held-out beams, timings, errors, scaling 
 :mod:`~prbdm.report.tables` (the Markdown), :mod:`~prbdm.report.figures` (the PNGs); this one
 puts them together and appends the stability suite when run from a source checkout.
 
-Methods (SPEC §3 model, n = 4, 4 modes, paper poses, ``beam`` law unless noted):
+Methods (docs/conventions.md §3 model, n = 4, 4 modes, paper poses, ``beam`` law unless noted):
 
 ==================  ==========================================================================
 plate truth         Kirchhoff plate FEM (:mod:`prbdm.truth`), the issue's reference
@@ -22,7 +22,7 @@ network + refined   ``fit_many`` from the network's best 4 candidate gammas and 
 network (direct)    the network's own prediction of the beam-truth frequencies
 ==================  ==========================================================================
 
-Errors of a model against a reference truth: the SPEC §3 loss over the first
+Errors of a model against a reference truth: the docs/conventions.md §3 loss over the first
 ``r = min(n, 4)`` modes (mean over the model's poses of the relative eigenvalue error norm) and
 the worst per-mode relative frequency error over those modes and poses. A truth or the direct
 prediction is one "pose" with k = 1. Time per beam: wall time of the method alone, per beam; a

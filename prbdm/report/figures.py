@@ -45,7 +45,7 @@ def plot_error_vs_time(res: dict) -> bytes:
     fig, axes = plt.subplots(2, 2, figsize=(12, 9))
     colors = _colors(res["methods"], plt)
     for row, ref in enumerate(("plate", "beam")):
-        for col, (stat, label) in enumerate((("loss", "loss (SPEC §3) [%]"),
+        for col, (stat, label) in enumerate((("loss", "loss (docs/conventions.md §3) [%]"),
                                              ("worst", "worst per-mode frequency error [%]"))):
             ax = axes[row, col]
             for i, m in enumerate(res["methods"]):

@@ -30,6 +30,7 @@ class ReportConfig:
     scale_beams: int = 3             # beams of the scaling studies
     stability: bool = True
     fit_seed: int = 0
+    objective: str = "eigenvalue"    # what the fits minimise and which network is measured
     command: str = ""
     progress: object = None          # callable(str) or None
 
@@ -78,7 +79,7 @@ def held_out_beams(cfg: ReportConfig, sur) -> tuple[list, dict]:
 
 # ============================================================================ errors
 def _errors(omega, omega_ref, r):
-    """Loss (SPEC §3, %) and worst per-mode frequency error (fraction) per beam.
+    """Loss (docs/conventions.md §3, %) and worst per-mode frequency error (fraction) per beam.
 
     omega (B, m, n) per pose or (B, R) for one 'pose'; omega_ref (B, R')."""
     omega = np.asarray(omega, dtype=np.float64)
@@ -120,7 +121,8 @@ def run_report(cfg: ReportConfig) -> dict:
 
     started = time.time()
     load0 = _load()
-    sur = sg.load_checkpoint(cfg.checkpoint or sg.default_checkpoint(JOINTS, "beam"))
+    sur = sg.load_checkpoint(cfg.checkpoint
+                             or sg.default_checkpoint(JOINTS, "beam", cfg.objective))
     if sur.joints != JOINTS or sur.truth != "beam":
         raise BadInput(f"--checkpoint: need a {JOINTS}-joint beam-truth checkpoint, got "
                        f"{sur.joints} joints, truth {sur.truth!r}")
@@ -191,13 +193,13 @@ def run_report(cfg: ReportConfig) -> dict:
     for S in starts:
         t0 = time.perf_counter()
         res = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, starts=S,
-                       seed=cfg.fit_seed)
+                       seed=cfg.fit_seed, objective=cfg.objective)
         t = (time.perf_counter() - t0) / B
         ts = []
         for i in range(single):
             t0 = time.perf_counter()
             fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
-                     starts=S, seed=cfg.fit_seed)
+                     starts=S, seed=cfg.fit_seed, objective=cfg.objective)
             ts.append(time.perf_counter() - t0)
         fit_beams[S] = res
         add(f"fit_{S}", f"fit, {S} starts", np.stack([x.omega for x in res]), t, JOINTS,
@@ -209,7 +211,7 @@ def run_report(cfg: ReportConfig) -> dict:
     if keep.size:
         t0 = time.perf_counter()
         res = fit_many([beams[i] for i in keep], om_plate[keep], joints=JOINTS, modes=r,
-                       poses=poses, starts=S_plate, seed=cfg.fit_seed)
+                       poses=poses, starts=S_plate, seed=cfg.fit_seed, objective=cfg.objective)
         t = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in res])
@@ -234,13 +236,14 @@ def run_report(cfg: ReportConfig) -> dict:
     H = init.shape[1]
     t0 = time.perf_counter()
     best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=init,
-                    max_iter=REFINE_ITER)
+                    max_iter=REFINE_ITER, objective=cfg.objective)
     t_ref = (time.perf_counter() - t0) / B
     ts = []
     for i in range(single):
         t0 = time.perf_counter()
         fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
-                 init_gamma=init[i:i + 1], max_iter=REFINE_ITER)
+                 init_gamma=init[i:i + 1], max_iter=REFINE_ITER,
+                 objective=cfg.objective)
         ts.append(time.perf_counter() - t0)
     add("refined", f"network + refined ({H} starts, {REFINE_ITER} it.)",
         np.stack([x.omega for x in best]), t_net + t_ref, JOINTS, needs="beam",
@@ -280,7 +283,7 @@ def run_report(cfg: ReportConfig) -> dict:
                    "starts": list(starts), "single": single, "scale_beams": cfg.scale_beams,
                    "fit_seed": cfg.fit_seed, "joints": JOINTS, "modes": r,
                    "poses": [p[0] for p in poses], "law": "beam", "refine_iter": REFINE_ITER,
-                   "command": cfg.command},
+                   "objective": cfg.objective, "command": cfg.command},
         "source": source,
         "checkpoint": {**sur.describe(),
                        "dataset_max_index": sur.metadata.get("dataset", {}).get("max_index"),
@@ -310,7 +313,8 @@ def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:
     rows = []
     for n in ns:
         t0 = time.perf_counter()
-        res = fit_many(sb, om, joints=n, modes=n, starts=S_n, seed=cfg.fit_seed)
+        res = fit_many(sb, om, joints=n, modes=n, starts=S_n, seed=cfg.fit_seed,
+                       objective=cfg.objective)
         rows.append({"n": n, "time_s": (time.perf_counter() - t0) / len(sb),
                      "loss_median": _q([x.loss_percent for x in res], 50),
                      "poses": int(res[0].poses.shape[0])})
@@ -322,7 +326,7 @@ def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:
     for S in Ss:
         t0 = time.perf_counter()
         res = fit_many(sb, om[:, :MODES], joints=JOINTS, modes=MODES, starts=S,
-                       seed=cfg.fit_seed)
+                       seed=cfg.fit_seed, objective=cfg.objective)
         rows.append({"starts": S, "time_s": (time.perf_counter() - t0) / len(sb),
                      "loss_median": _q([x.loss_percent for x in res], 50)})
     out["fit_vs_starts"] = {"rows": rows}

@@ -80,7 +80,8 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         f"(dataset max_index {ck['dataset_max_index']}).",
         f"- **Model:** n = {c['joints']} joints, {c['modes']} modes, paper poses "
         f"({', '.join(f'{p:.2f}' for p in c['poses'])} rad), `{c['law']}` law; fits: "
-        f"`fit_many(seed={c['fit_seed']})`; refinement {c['refine_iter']} iterations from the "
+        f"`fit_many(seed={c['fit_seed']})`, minimising the {c.get('objective', 'eigenvalue')} "
+        f"objective; refinement {c['refine_iter']} iterations from the "
         f"network's candidates and the fit's four fixed starts.",
         f"- **Machine:** {env['cores']} cores ({env['system']} {env['machine']}), load average "
         f"{env['load_average_start']:.2f} at the start and {env['load_average_end']:.2f} at the "
@@ -114,7 +115,7 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         per_mode_table(res, "beam"),
         "",
         "Columns: `modes` — how many modes the error compares (`min(n, 4)`; the classical "
-        "models have only 1 or 3); `loss` — SPEC §3, mean over the model's poses of "
+        "models have only 1 or 3); `loss` — docs/conventions.md §3, mean over the model's poses of "
         "`||lambda[:r] - lambda_ref[:r]|| / ||lambda_ref[:r]||`, in %; `worst freq. error` — the "
         "largest `|omega / omega_ref - 1|` over those modes and poses, per beam; median and 95th "
         "percentile over the beams. `time per beam` — wall time of the method alone, mean per "

@@ -57,7 +57,7 @@ def project_k(mu, lam_pred):
 
 
 def candidate_losses(mu, lam):
-    """Loss [%] (SPEC §3) of each candidate's PRBDM with its least-squares SCFs against ``lam``:
+    """Loss [%] (docs/conventions.md §3) of each candidate's PRBDM with its least-squares SCFs against ``lam``:
     mu (B, H, m, r), lam (B, r) -> k (B, H, m), loss (B, H). Works for NumPy and torch."""
     lam_c = lam[:, None, :]
     k = project_k(mu, lam_c)
@@ -83,10 +83,10 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
       ``direct``: ``log k = out * logk_std + logk_mean`` (H = 1 only);
       ``projection``: the least-squares SCF that matches the PRBDM's unit-k eigenvalues
       ``mu_i(gamma)`` to the network's own predicted truth eigenvalues ``omega_hat^2`` (the same
-      variable projection as the fit, SPEC §3, with the prediction in place of the truth), times
+      variable projection as the fit, docs/conventions.md §3, with the prediction in place of the truth), times
       ``exp(K_DELTA_SCALE * out)``. It needs the geometry (x, w / L), the poses and r.
     - with H > 1 candidates, the one kept is the one whose PRBDM best matches the predicted truth
-      frequencies (the SPEC §3 loss against ``omega_hat``, on the poses ``select_poses`` of the
+      frequencies (the docs/conventions.md §3 loss against ``omega_hat``, on the poses ``select_poses`` of the
       set): the network proposes, the physics chooses. Without geometry, candidate 0 is
       returned and logk is None.
     Every output is valid by construction: k > 0 because mu > 0 and omega_hat > 0.

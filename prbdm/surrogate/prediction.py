@@ -79,7 +79,7 @@ class Prediction:
     feature lies outside its training range (with the margin); warnings: one text per beam and
     offending feature (at most 20 listed); time_s: wall time of the prediction; extra:
     ``gamma_candidates`` (B, H, n+1), ``selected`` (B,) and ``candidate_loss`` (B, H) (each
-    candidate's SPEC §3 loss [%] against the predicted truth frequencies, on the choice poses)
+    candidate's docs/conventions.md §3 loss [%] against the predicted truth frequencies, on the choice poses)
     for a network with H > 1 candidates; see :meth:`ranked_candidates`; implausible (B,) bool and
     problems (one text per such beam): predictions that fail :func:`physical_problems`.
 

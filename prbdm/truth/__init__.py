@@ -1,4 +1,4 @@
-"""Truth: bending natural frequencies of a beam (SPEC §2), three models.
+"""Truth: bending natural frequencies of a beam (docs/conventions.md §2), three models.
 
 ``analytic``
     uniform cantilevers only, ``cos(a) cosh(a) = -1`` (:mod:`prbdm.truth.analytic`).
@@ -53,7 +53,7 @@ def _check_modes(model, modes):
 def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
                         all_modes: bool = False, elements: int | None = None,
                         **options) -> TruthResult:
-    """Bending natural frequencies of ``beam`` (SPEC §2).
+    """Bending natural frequencies of ``beam`` (docs/conventions.md §2).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Analytic truth for uniform cantilevers (SPEC §2, the paper's Eqs. 18-20).
+"""Analytic truth for uniform cantilevers (docs/conventions.md §2, the paper's Eqs. 18-20).
 
 ``omega_n = alpha_n^2 sqrt(E I / (rho A L^4))`` with ``cos(alpha) cosh(alpha) = -1``. For a
 rectangular section ``E I / (rho A) = E t^2 / (12 rho)``, so the width drops out and

@@ -13,7 +13,7 @@ __all__ = ["TruthResult"]
 
 @dataclass
 class TruthResult:
-    """Bending natural frequencies of one beam (SPEC §2).
+    """Bending natural frequencies of one beam (docs/conventions.md §2).
 
     ``omega`` [rad/s] and ``freq_hz`` [Hz] hold the kept bending modes, ascending. ``all_modes``
     lists every computed mode as a dict with ``omega``, ``freq_hz``, ``lambda`` (the
