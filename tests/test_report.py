@@ -171,3 +171,17 @@ def test_held_out_from_data_set(tmp_path):
                 progress="none")
     beams, src = rp.held_out_beams(rp.ReportConfig(data=str(out), beams=2), sur)
     assert src["indices"] == [0, 1]
+
+
+def test_report_objective_frequency(tmp_path):
+    """`prbdm report --objective frequency`: the fits minimise it, the network measured is
+    beam-n4-frequency, and both are recorded (issue 18 item 1)."""
+    argv = ["report", "--quick", "--beams", "2", "--starts", "8", "--out", str(tmp_path),
+            "--no-stability", "--objective", "frequency"]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(cli.COMMANDS, "report", ("prbdm.commands.report", "report"))
+        assert cli.main(argv) == 0
+    res = json.loads((tmp_path / "report.json").read_text())
+    assert res["config"]["objective"] == "frequency"
+    assert "--objective frequency" in res["config"]["command"]
+    assert res["checkpoint"]["name"].startswith("beam-n4-frequency")

@@ -603,7 +603,7 @@ def test_checkpoint_checks_on_load(tmp_path, tiny_set):
     assert not list(tmp_path.glob("nan*")) and not list(tmp_path.glob(".nan*"))
 
 
-@pytest.mark.parametrize("joints", [3, 4, 5])
+@pytest.mark.parametrize("joints", ["3", "4", "5", "4-frequency"])
 def test_shipped_checkpoints_are_hashed_and_clean(joints):
     """Every shipped checkpoint records the hash of its weights (checked on load), its readable
     copy equals the header, and neither holds a machine path."""
@@ -725,3 +725,26 @@ def test_shipped_checkpoint_is_as_accurate_as_documented_on_held_out_beams(joint
     assert not pred.implausible.any()
     assert np.median(loss) <= 2 * DOCUMENTED_MEDIAN_LOSS[joints]
     assert np.median(np.abs(pred.omega_truth[:, :r] / omega[:, :r] - 1)) <= 5e-4
+
+
+def test_frequency_checkpoint_keeps_every_mode_closer_than_the_eigenvalue_one():
+    """beam-n4-frequency (issue 18) on 16 beams of seed 1 against the beam truth: the median of
+    the worst per-mode frequency error over the poses within 2x the 5.5 % measured on 1,000
+    held-out beams (docs/surrogate.md, training/evaluate_objective.py), and below the paper-loss
+    network's on the same beams (22.7 % there)."""
+    from prbdm.geometry import random_beam
+    from prbdm.truth import bending_frequencies
+
+    beams = [random_beam(1, i) for i in range(16)]
+    omega = np.array([bending_frequencies(b, "beam", 5).omega for b in beams])
+    worst = {}
+    for name in ("beam-n4-frequency", "beam-n4"):
+        path = sg.PACKAGE_CHECKPOINTS / f"{name}.safetensors"
+        if not path.is_file():
+            pytest.skip(f"{path.name} not shipped in this tree")
+        pred = sg.predict(beams, checkpoint=sg.load_checkpoint(path), frequencies=True, warn=False)
+        worst[name] = np.abs(pred.omega[..., :4] / omega[:, None, :4] - 1).max(axis=(1, 2))
+    assert sg.load_checkpoint(sg.default_checkpoint(4, "beam", "frequency")).objective == \
+        "frequency"
+    assert np.median(worst["beam-n4-frequency"]) <= 2 * 0.055
+    assert np.median(worst["beam-n4-frequency"]) < np.median(worst["beam-n4"])
