@@ -1,3 +1,4 @@
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -38,3 +39,15 @@ def tiny_set(tmp_path_factory) -> Path:
                          capture_output=True, text=True, cwd=repo, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
     return root
+
+
+@pytest.fixture
+def beam_file(tmp_path):
+    """``beam_file(data, name="beam.json") -> path``: a beam file in the test's folder (``data``
+    a dict written as JSON, or a str written as it is). Some test files define their own, with
+    defaults of their own."""
+    def write(data, name="beam.json"):
+        path = tmp_path / name
+        path.write_text(data if isinstance(data, str) else json.dumps(data))
+        return str(path)
+    return write

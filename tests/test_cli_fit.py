@@ -12,15 +12,6 @@ UNIFORM = {"name": "uniform", "x": [0.0, 1.0], "half_width": [0.1812, 0.1812],
 TAPERED = {"x": [0.0, 0.4, 1.0], "half_width": [0.2, 0.1, 0.05], "thickness": 0.02}
 
 
-@pytest.fixture
-def beam_file(tmp_path):
-    def write(data, name="beam.json"):
-        path = tmp_path / name
-        path.write_text(json.dumps(data))
-        return str(path)
-    return write
-
-
 def test_fit_json_has_the_spec_keys(beam_file, capsys):
     code = main(["fit", beam_file(UNIFORM), "--joints", "2", "--truth", "analytic", "--starts", "8",
                  "--json"])

@@ -12,15 +12,6 @@ TAPER = {"name": "taper", "x": [0, 0.35, 1.0], "half_width": [0.18, 0.12, 0.05],
 UNIFORM = {"x": [0, 1.0], "half_width": [0.1812, 0.1812], "thickness": 0.040532}
 
 
-@pytest.fixture
-def beam_file(tmp_path):
-    def write(data, name="beam.json"):
-        p = tmp_path / name
-        p.write_text(json.dumps(data) if not isinstance(data, str) else data)
-        return str(p)
-    return write
-
-
 def test_default_table(beam_file, capsys):
     assert main(["truth", beam_file(TAPER)]) == 0
     out = capsys.readouterr().out

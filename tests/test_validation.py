@@ -36,15 +36,6 @@ COMMANDS = {
 }
 
 
-@pytest.fixture
-def beam_file(tmp_path):
-    def make(data, name="beam.json"):
-        path = tmp_path / name
-        path.write_text(json.dumps(data))
-        return str(path)
-    return make
-
-
 def _args(command, tmp_path):
     return [a.replace("{tmp}", str(tmp_path)) for a in COMMANDS[command]]
 
