@@ -64,15 +64,11 @@ for path in [p for p in cfg["checkpoints"].split(",") if p]:
                   f"data set for {spec['joints']} / {r}")
     pred = sg.predict(batch, checkpoint=sur, frequencies=True, warn=False)
     worst = 100 * np.abs(pred.omega[..., :r] / omega_t[:, None, :r] - 1).max(axis=(1, 2))
-    lam = pred.omega[..., :r] ** 2
-    ref = omega_t[:, None, :r] ** 2
-    loss = 100 * (np.linalg.norm(lam - ref, axis=-1) / np.linalg.norm(ref, axis=-1)).mean(-1)
-    ok = ~pred.implausible if getattr(pred, "implausible", None) is not None else \
-        np.ones(B, dtype=bool)
+    loss = sg.loss_percent_np(pred.omega, omega_t ** 2, r, is_lambda=False)
     rows.append(dict(method=f"network {sur.name} ({sur.objective} objective)",
                      worst_median=float(np.median(worst)),
                      worst_p95=float(np.percentile(worst, 95)),
-                     loss_median=float(np.median(loss)), implausible=int((~ok).sum())))
+                     loss_median=float(np.median(loss)), implausible=int(pred.implausible.sum())))
 
 fit_median = rows[0]["worst_median"]
 print(f"{B} held-out beams of {cfg['data']} (seed {spec['seed']}), n = {spec['joints']}, "

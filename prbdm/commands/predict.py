@@ -166,38 +166,42 @@ def run(args) -> int:
         return 1
 
 
-def auto_network_truth(args) -> str | None:
-    """The truth `--truth auto` takes for this panel when a default network for it exists (the
-    plate for a panel wider than 0.05 L), else None (the beam network answers, with a warning
-    from :func:`truth_reason`). Only when neither --checkpoint nor --truth is given."""
-    if args.checkpoint is not None or args.truth is not None:
+def auto_choice(args) -> tuple[str, str] | None:
+    """(truth, reason) that `--truth auto` gives this panel (:func:`prbdm.truth.choice.choose_truth`:
+    the plate for a panel wider than 0.05 L), or None when --truth is given or the beam file cannot
+    be read (read_beam then reports it). Decided once per command from the panel's width."""
+    if args.truth is not None:
         return None
-    from .. import surrogate
     from ..truth.choice import choose_truth
 
     beam = peek_beam(args)
-    if beam is None:
+    return None if beam is None else choose_truth(beam, "auto")
+
+
+def network_truth(args, choice) -> str | None:
+    """The truth whose default network answers: the one `--truth auto` chose when such a network
+    is found (and no --checkpoint is given), else None (the beam network answers, with a warning
+    from :func:`truth_reason`)."""
+    if args.checkpoint is not None or choice is None or choice[0] == "beam":
         return None
+    from .. import surrogate
+
     try:
-        model, _ = choose_truth(beam, "auto")
-        if model != "beam":
-            surrogate.default_checkpoint(args.joints, model,
-                                         getattr(args, "objective", None) or "eigenvalue")
-            return model
+        surrogate.default_checkpoint(args.joints, choice[0],
+                                     getattr(args, "objective", None) or "eigenvalue")
+        return choice[0]
     except BadInput:           # no default network for that truth: the beam network, warned
-        pass
-    return None
+        return None
 
 
-def truth_reason(beam, sur, asked) -> tuple[str, str | None]:
+def truth_reason(beam, sur, asked, choice) -> tuple[str, str | None]:
     """Why the prediction follows its checkpoint's truth, and a warning when ``--truth auto``
-    (the default) would take another for this panel: a beam network's answer for a panel wider
-    than 0.05 L follows the beam's physics, which the plate's differs from (issue 16)."""
-    from ..truth.choice import choose_truth
-
-    if asked is not None:
+    (the default; ``choice`` is its (truth, reason)) would take another for this panel: a beam
+    network's answer for a panel wider than 0.05 L follows the beam's physics, which the
+    plate's differs from (issue 16)."""
+    if asked is not None or choice is None:
         return f"--truth {asked} as asked (checkpoint {sur.name})", None
-    model, why = choose_truth(beam, "auto")
+    model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
@@ -211,14 +215,15 @@ def truth_reason(beam, sur, asked) -> tuple[str, str | None]:
 def predict_command(args) -> int:
     import time
 
-    sur = load_surrogate(args, auto_network_truth(args))
+    choice = auto_choice(args)
+    sur = load_surrogate(args, network_truth(args, choice))
     # refuses what `prbdm truth --model TRUTH` refuses, with the same message
     beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
     out = predict_one(sur, beam, args.allow_extrapolation)
     out["time_s"] = time.perf_counter() - t0
     out["input"] = info
-    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth)
+    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice)
     if wrong_physics:
         out["warnings"].append(wrong_physics)
     for w in out["warnings"]:
