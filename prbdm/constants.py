@@ -19,3 +19,10 @@ DEFAULT_STARTS = 64
 #: (prbdm.fit.refine_starts; measured in docs/fit.md)
 REFINE_CANDIDATES = 4
 REFINE_ITER = 15
+
+#: a checkpoint whose own held-out test (its metadata's ``test``) is worse than this is announced
+#: as a rough estimate whenever it answers (prbdm.surrogate.Surrogate.accuracy_warning): the PRBDM's
+#: paper loss median [%] and the median error of any predicted truth frequency [%]. The shipped
+#: beam networks are a decade inside both (docs/surrogate.md); a plate network may not be.
+ACCURACY_WARN_LOSS_PERCENT = 2.0
+ACCURACY_WARN_FREQ_PERCENT = 1.0

@@ -308,6 +308,41 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
 
 
 # ------------------------------------------------------------------------ no silent wrong answers
+def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_file, tmp_path,
+                                                                 tiny_set):
+    """A network whose own held-out test (metadata ``test``) is worse than the limits in
+    prbdm.constants answers with a warning that gives those numbers and the remedy, in the JSON
+    and on stderr, and the library raises LowAccuracyWarning; the shipped beam networks do not."""
+    import warnings
+
+    from prbdm import surrogate as sg
+    from prbdm.constants import ACCURACY_WARN_LOSS_PERCENT
+
+    for path in sorted(sg.PACKAGE_CHECKPOINTS.glob("beam-*.safetensors")):
+        assert sg.load_checkpoint(path).accuracy_warning() is None, path
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    good = dict(meta, test=dict(meta["test"], loss_median=ACCURACY_WARN_LOSS_PERCENT / 2,
+                                freq_err_median=[1e-4] * len(meta["test"]["freq_err_median"])))
+    rough = dict(good, test=dict(good["test"], loss_median=3 * ACCURACY_WARN_LOSS_PERCENT))
+    beam = random_beam(11, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sg.LowAccuracyWarning)
+        warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
+        sg.Surrogate(tensors, good).predict(beam)             # quiet
+        with pytest.raises(sg.LowAccuracyWarning, match="rough estimate"):
+            sg.Surrogate(tensors, rough).predict(beam)
+    ckpt = sg.save_checkpoint(tmp_path / "rough.safetensors", tensors, rough)
+    rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ckpt,
+                       "--json")
+    r = json.loads(out)
+    assert rc == 0 and "rough estimate" in err
+    warning = [w for w in r["warnings"] if "rough estimate" in w]
+    assert len(warning) == 1 and f"median {3 * ACCURACY_WARN_LOSS_PERCENT:g} %" in warning[0]
+    assert "--truth beam" in warning[0]
+    assert r["checkpoint"]["held_out_accuracy"]["loss_median_percent"] == \
+        3 * ACCURACY_WARN_LOSS_PERCENT
+
+
 def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_set):
     """64 bytes overwritten in the weights: exit 2 naming the file, with and without --json."""
     bad = tmp_path / "damaged.safetensors"

@@ -106,6 +106,7 @@ def checked_prediction(sur, beam, allow_extrapolation: bool = False):
     with _w.catch_warnings():
         _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
         _w.simplefilter("ignore", surrogate.ImplausiblePredictionWarning)
+        _w.simplefilter("ignore", surrogate.LowAccuracyWarning)    # said once, by predict_one
         pred = sur.predict(beam, frequencies=True, allow_extrapolation=allow_extrapolation)
     if pred.implausible[0]:
         problem = pred.problems[0].replace("implausible prediction: ", "")
@@ -145,7 +146,8 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "omega_truth_predicted": omega_t.tolist(),
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
-        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings],
+        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings]
+        + ([sur.accuracy_warning()] if sur.accuracy_warning() else []),
         "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }

@@ -34,6 +34,7 @@ from .features import CHUNK, FeatureSpec, feature_names, features, rfe_log_omega
 from .numpy_model import (BeamBatch, link_table, loss_percent_np, prbdm_eigenvalues,
                           span_integrals)
 from .prediction import (FREQ_FACTOR, K_RANGE, OOD_MARGIN, ImplausiblePredictionWarning,
+                         LowAccuracyWarning,
                          OutOfDistributionWarning, Prediction, Surrogate, default_threads,
                          load_checkpoint, physical_problems, predict)
 
@@ -41,6 +42,7 @@ __all__ = ["BeamBatch", "FeatureSpec", "features", "feature_names", "prbdm_eigen
            "link_table", "span_integrals", "loss_percent_np", "rfe_log_omega", "uniform_gamma",
            "Surrogate", "Prediction", "load_checkpoint", "predict", "physical_problems",
            "default_threads", "OutOfDistributionWarning", "ImplausiblePredictionWarning",
+           "LowAccuracyWarning",
            "save_checkpoint", "read_checkpoint", "default_checkpoint", "available_checkpoints",
            "checkpoint_name", "dataset_hash", "weights_sha256", "CHECKPOINT_FORMAT",
            "CHECKPOINT_VERSION", "PACKAGE_CHECKPOINTS", "GAMMA_MIN", "GAMMA_MAX", "K_MODES",

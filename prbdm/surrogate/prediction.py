@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import ACCURACY_WARN_FREQ_PERCENT, ACCURACY_WARN_LOSS_PERCENT
 from ..errors import BadInput
 from .checkpoint import check_checkpoint, default_checkpoint, member_prefixes, read_checkpoint
 from .decode import SELECT_POSES, combine_members, concatenate_outputs, decode_numpy, silu
@@ -52,6 +53,11 @@ class OutOfDistributionWarning(UserWarning):
 
 class ImplausiblePredictionWarning(UserWarning):
     """A prediction is non-finite or outside physical ranges (see Prediction.problems)."""
+
+
+class LowAccuracyWarning(UserWarning):
+    """The checkpoint's own held-out test is worse than prbdm.constants.ACCURACY_WARN_*: its
+    answers are rough estimates (Surrogate.accuracy_warning says how rough)."""
 
 
 def default_threads() -> int:
@@ -172,13 +178,47 @@ class Surrogate:
         return self.path.name if self.path else "<in memory>"
 
     def describe(self) -> dict:
-        """A short summary for command output: path, name, truth, joints, data set size."""
+        """A short summary for command output: path, name, truth, joints, data set size, and the
+        accuracy its own held-out test measured (:meth:`held_out_accuracy`)."""
         ds = self.metadata.get("dataset", {})
         return {"path": str(self.path) if self.path else None, "name": self.name,
                 "truth": self.truth, "joints": self.joints, "modes": self.modes, "law": self.law,
                 "objective": self.objective,
                 "dataset_size": ds.get("size"), "dataset_sha256": ds.get("sha256"),
-                "training_mode": self.metadata.get("training", {}).get("selected_mode")}
+                "training_mode": self.metadata.get("training", {}).get("selected_mode"),
+                "held_out_accuracy": self.held_out_accuracy()}
+
+    def held_out_accuracy(self) -> dict | None:
+        """What the training script measured on the checkpoint's test split (beams it never saw):
+        the PRBDM's paper loss median and p95 [%], and the median error of each predicted truth
+        frequency [%] (the first ``modes``); None when the metadata has no test."""
+        test = self.metadata.get("test") or {}
+        if test.get("loss_median") is None or not test.get("freq_err_median"):
+            return None
+        return {"beams": test.get("beams"), "loss_median_percent": float(test["loss_median"]),
+                "loss_p95_percent": float(test.get("loss_p95", float("nan"))),
+                "truth_frequency_error_median_percent":
+                    [100 * float(e) for e in test["freq_err_median"][:self.modes]]}
+
+    def accuracy_warning(self) -> str | None:
+        """A sentence for every answer of a checkpoint whose held-out test is worse than
+        prbdm.constants.ACCURACY_WARN_LOSS_PERCENT / ACCURACY_WARN_FREQ_PERCENT, else None: a
+        network that is known to be rough must not answer as if it were not."""
+        acc = self.held_out_accuracy()
+        if acc is None:
+            return None
+        worst = max(acc["truth_frequency_error_median_percent"])
+        if (acc["loss_median_percent"] <= ACCURACY_WARN_LOSS_PERCENT
+                and worst <= ACCURACY_WARN_FREQ_PERCENT):
+            return None
+        modes = ", ".join(f"{e:.2g}" for e in acc["truth_frequency_error_median_percent"])
+        return (f"checkpoint {self.name} is a rough estimate: on {acc['beams']} held-out "
+                f"{self.truth} panels its PRBDM loss was a median {acc['loss_median_percent']:.3g} % "
+                f"(p95 {acc['loss_p95_percent']:.3g} %) and its truth frequencies a median "
+                f"[{modes}] % off (modes 1-{self.modes}; limits "
+                f"{ACCURACY_WARN_LOSS_PERCENT:g} % / {ACCURACY_WARN_FREQ_PERCENT:g} %); "
+                f"for a faithful model use `prbdm fit BEAM --joints {self.joints} "
+                f"--truth {self.truth}`")
 
     # ---------------------------------------------------------------- the network in NumPy
     def features(self, beams) -> np.ndarray:
@@ -310,7 +350,8 @@ class Surrogate:
         A feature that did not vary in training with another value here is refused (BadInput)
         unless ``allow_extrapolation``. Predictions that fail :func:`physical_problems` are
         flagged in ``implausible`` and ``problems`` and raise one
-        :class:`ImplausiblePredictionWarning` (if ``warn``)."""
+        :class:`ImplausiblePredictionWarning` (if ``warn``). A checkpoint whose own held-out test
+        is poor (:meth:`accuracy_warning`) raises one :class:`LowAccuracyWarning` (if ``warn``)."""
         t0 = time.perf_counter()
         batch = None
         if isinstance(beams_or_features, np.ndarray):
@@ -341,6 +382,9 @@ class Surrogate:
         if warn and pred.problems:
             more = f" (and {len(pred.problems) - 1} more)" if len(pred.problems) > 1 else ""
             warnings.warn(ImplausiblePredictionWarning(pred.problems[0] + more), stacklevel=2)
+        rough = self.accuracy_warning() if warn else None
+        if rough:
+            warnings.warn(LowAccuracyWarning(rough), stacklevel=2)
         pred.time_s = time.perf_counter() - t0
         return pred
 
