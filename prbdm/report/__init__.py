@@ -20,6 +20,8 @@ network             :func:`prbdm.surrogate.Surrogate.predict` (checkpoint ``beam
 network + refined   ``fit_many`` from the network's best 4 candidate gammas and the fit's four
                     fixed starts, 15 iterations, the best kept (``prbdm.fit.REFINE_*``)
 network (direct)    the network's own prediction of the beam-truth frequencies
+plate network       the same three rows for the plate network (``plate-n4``), refined against
+                    the plate truth; absent when no plate network is found
 ==================  ==========================================================================
 
 Errors of a model against a reference truth: the docs/conventions.md §3 loss over the first

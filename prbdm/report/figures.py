@@ -25,7 +25,8 @@ def _png(fig) -> bytes:
 
 
 _MARKERS = {"plate_truth": "s", "beam_truth": "D", "rfe": "v", "howell-1r": "<", "su-3r": ">",
-            "fit_plate": "P", "network": "*", "refined": "X", "direct": "h"}
+            "fit_plate": "P", "network": "*", "refined": "X", "direct": "h",
+            "plate_network": "p", "plate_refined": "d", "plate_direct": "H"}
 
 
 def _colors(methods, plt) -> dict:

@@ -255,6 +255,7 @@ def run_report(cfg: ReportConfig) -> dict:
         note="the network's prediction of the beam-truth frequencies (same call as network)",
         single_s=t_net_single)
     cfg.say("network done")
+    _plate_network(cfg, beams, om_plate, ok_plate, poses, r, add)
 
     # ---------------------------------------------------------------- errors against both truths
     for m in methods:
@@ -295,6 +296,47 @@ def run_report(cfg: ReportConfig) -> dict:
         "environment": _environment(load0),
         "elapsed_s": time.time() - started,
     }
+
+
+def _plate_network(cfg: ReportConfig, beams, om_plate, ok_plate, poses, r, add) -> None:
+    """The rows of the plate network (``plate-n4`` for the objective), when one is found: its
+    PRBDM, its own plate frequencies, and it refined against the plate truth like the beam
+    network's refinement (issue 16 item 6). No plate network: no rows, and the tables say so."""
+    from .. import surrogate as sg
+    from ..fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
+
+    try:
+        path = sg.default_checkpoint(JOINTS, "plate", cfg.objective)
+    except BadInput:
+        cfg.say("no plate network: its rows are left out")
+        return
+    sur = sg.load_checkpoint(path)
+    B = len(beams)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")      # the held-out accuracy is what the rows measure
+        sur.predict(beams[:2], warn=False)
+        pred, t_net = _best_of(lambda: sur.predict(beams, frequencies=True, warn=False))
+    t_net /= B
+    add("plate_network", f"plate network ({sur.name})", pred.omega, t_net, JOINTS,
+        note=f"{sur.name}, trained on the plate truth, batched",
+        extra={"ood_beams": int(pred.ood.any(1).sum())})
+    keep = np.flatnonzero(ok_plate)
+    if keep.size:
+        init = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))[keep]
+        t0 = time.perf_counter()
+        best = fit_many([beams[i] for i in keep], om_plate[keep], joints=JOINTS, modes=r,
+                        poses=poses, init_gamma=init, max_iter=REFINE_ITER,
+                        objective=cfg.objective)
+        t_ref = (time.perf_counter() - t0) / keep.size
+        om = np.full((B, len(poses), JOINTS), np.nan)
+        om[keep] = np.stack([x.omega for x in best])
+        add("plate_refined", f"plate network + refined to the plate ({init.shape[1]} starts, "
+            f"{REFINE_ITER} it.)", om, t_net + t_ref, JOINTS, needs="plate",
+            note="fit_many to the plate truth from the plate network's candidates and the "
+                 "fit's four fixed starts")
+    add("plate_direct", "plate network (direct frequencies)", pred.omega_truth[:, :r], t_net,
+        None, note="the plate network's prediction of the plate-truth frequencies")
+    cfg.say("plate network done")
 
 
 def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:

@@ -97,7 +97,10 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         f"Every model against the Kirchhoff plate's frequencies ({n_plate.get('beams', 0)} beams; "
         f"{len(res['plate_failures'])} where the plate could not be solved are left out). "
         "The fits, the network and the refinement were made for the *beam* truth; "
-        "`fit to plate truth` was fitted to the plate itself.",
+        "`fit to plate truth` was fitted to the plate itself, and the plate network's rows "
+        + ("(trained on the plate truth) are there too." if any(
+            m["key"] == "plate_network" for m in res["methods"])
+           else "are absent: no plate network was found."),
         "",
         method_table(res, "plate"),
         "",

@@ -145,7 +145,6 @@ def _cumulative(x, w, q, parts=(0, 1, 2, 3)):
 
     Cost O(B (S + Q) log(B S)): whole segments by prefix sums, the part of q's own segment by
     Simpson's rule; this is what makes the batched prediction fast."""
-    S = x.shape[-1]
     h = np.diff(x, axis=-1)
     full = _simpson(h, x[:, :-1], x[:, 1:], w[:, :-1], w[:, 1:], parts)
     cums = [np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(p, -1)], -1) for p in full]
@@ -180,7 +179,6 @@ def links_from_gamma(x, w, gamma):
 
     The cumulative integrals are evaluated once at the 2n + 1 distinct points (the cuts and the
     centres of links 1..n-1); links and tributary spans are differences of them."""
-    n = gamma.shape[-1] - 1
     inner = np.cumsum(gamma[..., :-1], axis=-1)
     zero = np.zeros_like(inner[..., :1])
     cuts = np.concatenate([zero, inner, zero + 1.0], axis=-1)          # (B, n+2)
