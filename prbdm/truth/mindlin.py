@@ -210,7 +210,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     info["below_threshold_kept"] = int(np.sum(frac[kept_idx] < SECTION_THRESHOLD))
     info.update({"element": f"Lagrange P{degree} triangles (w, beta_x, beta_y), Reissner-Mindlin,"
                             " half model",
-                 "dofs": int(3 * N), "triangles": int(mesh.t.shape[1]),
+                 "degree": int(degree), "dofs": int(3 * N), "triangles": int(mesh.t.shape[1]),
                  "thickness_ratio": float(tau), "shear_factor": float(shear_factor),
                  "symmetric_modes_computed": int(len(lam)), "selection": selection})
     return {"lam": lam[kept_idx], "participation": part[kept_idx], "entries": entries,
