@@ -160,7 +160,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     free = np.setdiff1d(np.arange(3 * N), fixed)
 
     # section fractions of the deflection field, on the plate's span-wise hats
-    xq = basis.global_coordinates().value[0]
+    xq = np.asarray(basis.global_coordinates())[0]
     quad = SimpleNamespace(xq=xq, dx=basis.dx)
     hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
     Hw, G = _section_operators(quad, hats)
@@ -171,6 +171,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU
     d = 1.0 / np.sqrt(Kf.diagonal())
     Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
+    # one refinement step: the shear term (1/tau^2) makes K ill-conditioned for thin panels
     op = refined_inverse(Kf, steps=1, spd=True)
     n = Kf.shape[0]
     want = int(modes)
@@ -186,7 +187,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
         lam = np.einsum("ik,ik->k", phi, K @ phi) / modal_mass
         order = np.argsort(lam, kind="stable")
         lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
-        wq = np.stack([basis.interpolate(phi[:N, j]).value for j in range(k)], axis=1)
+        wq = np.stack([np.asarray(basis.interpolate(phi[:N, j])) for j in range(k)], axis=1)
         sections = Hw @ np.transpose(wq, (0, 2, 1)).reshape(-1, k)
         part = (f @ phi) ** 2 / (modal_mass * area)
         frac = section_fraction(sections, G_lu, modal_mass)
