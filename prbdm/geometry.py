@@ -316,7 +316,8 @@ PLAUSIBLE = {"L": (1e-4, 100.0), "E": (1e5, 1.5e12), "rho": (10.0, 2.3e4),
 def check_beam(beam: Beam, model: str | None = None) -> None:
     """BadInput (one line naming the field and the allowed range) unless ``beam`` is within
     thin theory, the width-ratio limit and the hard limits; ``model`` ``"beam"``/``"analytic"``
-    or ``"plate"`` adds that truth model's own limits. ``None``: the limits every model shares
+    or ``"plate"``/``"mindlin"`` adds that truth model's own limits (the Mindlin plate shares the
+    Kirchhoff plate's mesh, hence its limits). ``None``: the limits every model shares
     (the PRBDM's own commands: ``eval``)."""
     if not isinstance(beam, Beam):
         raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
@@ -341,19 +342,19 @@ def check_beam(beam: Beam, model: str | None = None) -> None:
             raise BadInput(f"half_width: model {model!r} needs a full width 2 max(half_width) of "
                            f"at most {MAX_BEAM_WIDTH_RATIO:g} L (beyond it the panel is a plate, "
                            f"not a beam); this planform is {b_ratio:.3g} L wide (L = {L:.6g} m)")
-    if model == "plate":
+    if model in ("plate", "mindlin"):
         if ratio > MAX_PLATE_WIDTH_RATIO:
-            raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model 'plate' "
+            raise BadInput(f"half_width: varies by a factor {ratio:.3g} (max/min); model {model!r} "
                            f"accepts at most {MAX_PLATE_WIDTH_RATIO:.0e} (the beam model "
                            f"accepts {MAX_WIDTH_RATIO:.0e})")
         aspect = float(w.max() / L)
         if aspect > MAX_PLATE_ASPECT:
-            raise BadInput(f"half_width: the plate model needs a half-width of at most "
+            raise BadInput(f"half_width: the {model} model needs a half-width of at most "
                            f"{MAX_PLATE_ASPECT:g} L; this planform is {aspect:.3g} L wide "
                            f"(L = {L:.6g} m)")
         tb = float(beam.thickness / (2 * w.max()))
         if not tb <= MAX_PLATE_THICKNESS_RATIO:
-            raise BadInput(f"thickness: the plate model needs a thickness of at most "
+            raise BadInput(f"thickness: the {model} model needs a thickness of at most "
                            f"{MAX_PLATE_THICKNESS_RATIO:g} x the full width 2 max(half_width) for "
                            f"thin-plate theory; this panel's is {tb:.3g} x (the beam model has "
                            "no such limit)")

@@ -1,4 +1,4 @@
-"""``prbdm truth BEAM --model analytic|beam|plate [--modes R] [--all-modes] [--json] [--plot FILE]``
+"""``prbdm truth BEAM --model analytic|beam|plate|mindlin [--modes R] [--all-modes] [--json] [--plot FILE]``
 
 Bending natural frequencies of a beam (docs/conventions.md §2, §4). Prints a table by default; ``--json`` prints
 one JSON object (``model``, ``omega``, ``freq_hz``, ``time_s``, ``participation``, ``mesh`` and,
@@ -16,19 +16,21 @@ from ._common import add_beam_argument, positive_int, print_json, read_beam, req
 
 def add_arguments(parser):
     add_beam_argument(parser)
-    parser.add_argument("--model", choices=("analytic", "beam", "plate"), default="beam",
-                        help="analytic (uniform beams), beam (Euler-Bernoulli FEM, default) or "
-                             "plate (Kirchhoff plate FEM)")
+    parser.add_argument("--model", choices=("analytic", "beam", "plate", "mindlin"),
+                        default="beam",
+                        help="analytic (uniform beams), beam (Euler-Bernoulli FEM, default), "
+                             "plate (Kirchhoff plate FEM) or mindlin (Reissner-Mindlin plate "
+                             "FEM: with transverse shear and rotary inertia)")
     parser.add_argument("--modes", type=positive_int(1), default=5, metavar="R",
                         help="number of bending modes (default 5)")
     parser.add_argument("--all-modes", action="store_true",
                         help="list every computed mode with its transverse participation, "
                              "symmetry and whether it was kept (plate: also solves the "
-                             "antisymmetric family)")
+                             "antisymmetric family; mindlin: symmetric family only)")
     parser.add_argument("--elements", type=positive_int(2), default=None, metavar="N",
                         help="mesh resolution along the span (default: automatic)")
     parser.add_argument("--selection", choices=("section", "participation"), default=None,
-                        help="plate: bending-mode rule (default section; participation = the "
+                        help="plate, mindlin: bending-mode rule (default section; participation = the "
                              "paper's highest-participation rule)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--plot", metavar="FILE", default=None,
@@ -42,8 +44,8 @@ def run(args) -> int:
     beam, info = read_beam(args, "truth", model=args.model)
     options = {}
     if args.selection is not None:
-        if args.model != "plate":
-            raise BadInput("--selection: applies to --model plate only")
+        if args.model not in ("plate", "mindlin"):
+            raise BadInput("--selection: applies to --model plate or mindlin only")
         options["selection"] = args.selection
     if args.plot is not None:
         _check_plot_path(args.plot)
@@ -74,6 +76,9 @@ def _report(beam, res, all_modes: bool) -> str:
         how = "closed form"
     elif res.model == "beam":
         how = f"{mesh['elements']} Hermite elements"
+    elif res.model == "mindlin":
+        how = (f"{mesh['triangles']} Reissner-Mindlin P{mesh['degree']} triangles "
+               f"({mesh['mesher']}), {mesh['dofs']} DOFs")
     else:
         how = f"{mesh['triangles']} Argyris triangles ({mesh['mesher']}), {mesh['dofs']} DOFs"
     lines = [f"beam{name}: L = {beam.length:.6g} m, t = {beam.thickness:.6g} m, "

@@ -1,4 +1,4 @@
-"""Truth: bending natural frequencies of a beam (docs/conventions.md §2), three models.
+"""Truth: bending natural frequencies of a beam (docs/conventions.md §2), four models.
 
 ``analytic``
     uniform cantilevers only, ``cos(a) cosh(a) = -1`` (:mod:`prbdm.truth.analytic`).
@@ -8,6 +8,10 @@
     Kirchhoff plate on the planform, clamped at the root, Argyris triangles on an unstructured
     half mesh; bending modes picked by their transverse participation
     (:mod:`prbdm.truth.plate`, :mod:`prbdm.truth.modes`).
+``mindlin``
+    Reissner-Mindlin plate (transverse shear and rotary inertia, which Kirchhoff leaves out) on
+    the plate's half mesh, P4 Lagrange triangles, symmetric family only; the same mode selection
+    (:mod:`prbdm.truth.mindlin`). Its nondimensional eigenvalues depend on t/L.
 
 >>> from prbdm.truth import bending_frequencies
 >>> res = bending_frequencies(beam, model="beam", modes=5)      # doctest: +SKIP
@@ -35,9 +39,11 @@ from .result import TruthResult, check_frequencies
 
 __all__ = ["bending_frequencies", "TruthResult", "MODELS", "MAX_MODES"]
 
-MODELS = ("analytic", "beam", "plate")
+MODELS = ("analytic", "beam", "plate", "mindlin")
 #: the most modes each model may be asked for
-MAX_MODES = {"analytic": 200, "beam": 100, "plate": 30}
+MAX_MODES = {"analytic": 200, "beam": 100, "plate": 30, "mindlin": 30}
+#: the plate's mesh options, shared by the Mindlin plate (it meshes with plate_mesh)
+_MESH_OPTIONS = {"mesher", "grade", "corner_ratio", "across", "smooth", "kappa", "chord_elements"}
 
 
 def _check_modes(model, modes):
@@ -58,14 +64,17 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     Parameters
     ----------
     beam : prbdm.geometry.Beam
-    model : ``"analytic"`` (uniform beams only), ``"beam"`` or ``"plate"``
+    model : ``"analytic"`` (uniform beams only), ``"beam"``, ``"plate"`` or ``"mindlin"``
     modes : number of bending modes R (>= 1)
     all_modes : plate only: also solve the antisymmetric (torsional) family, so that
-        ``all_modes`` lists every mode up to the highest kept one, kept or not
+        ``all_modes`` lists every mode up to the highest kept one, kept or not (mindlin solves
+        the symmetric family only: ``all_modes`` lists every computed symmetric mode either way)
     elements : mesh resolution along the span (``None``: automatic, see docs/truth.md); beam:
-        base number of elements before the width grading; plate: ``1/h0`` for the mesh size h0
+        base number of elements before the width grading; plate, mindlin: ``1/h0`` for the mesh
+        size h0
     options : beam: ``grading`` (bool, default True); plate: ``selection`` ("section" or
-        "participation"), and the mesh options ``grade``, ``corner_ratio``, ``across``
+        "participation"), and the mesh options ``grade``, ``corner_ratio``, ``across``; mindlin:
+        the plate's, plus ``degree`` (2, 3 or 4, default 4) and ``shear_factor`` (default 5/6)
 
     Returns
     -------
@@ -76,7 +85,8 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     prbdm.errors.BadInput for an unknown model, invalid ``modes``, ``analytic`` on a
     non-uniform beam, a beam outside thin theory (thickness > ``MAX_THICKNESS_RATIO`` L; beam and
     analytic: full width > ``MAX_BEAM_WIDTH_RATIO`` L; plate: thickness >
-    ``MAX_PLATE_THICKNESS_RATIO`` x full width), or a beam too degenerate to be solved reliably.
+    ``MAX_PLATE_THICKNESS_RATIO`` x full width; mindlin: the plate's limits), or a beam too
+    degenerate to be solved reliably.
     """
     if model not in MODELS:
         raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
@@ -106,6 +116,33 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         out = solve_beam(beam, modes, elements=elements, **options)
         scale = beam_omega_scale(beam)
         symmetric_entries = None
+    elif model == "mindlin":
+        from .mindlin import DEGREES, solve_mindlin
+        from .modes import SELECTIONS
+        from .plate import plate_omega_scale
+        t0 = time.perf_counter()
+        unknown = set(options) - _MESH_OPTIONS - {"selection", "degree", "shear_factor"}
+        if unknown:
+            raise BadInput(f"model 'mindlin': unknown option {sorted(unknown)[0]!r}")
+        if options.get("selection", "section") not in SELECTIONS:
+            raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
+                           f"got {options['selection']!r}")
+        degree = options.get("degree", 4)
+        if isinstance(degree, bool) or degree not in DEGREES:
+            raise BadInput(f"degree: must be one of {', '.join(map(str, DEGREES))}, "
+                           f"got {degree!r}")
+        kappa = options.get("shear_factor", 5.0 / 6.0)
+        if isinstance(kappa, bool) or not isinstance(kappa, (int, float, np.floating)) \
+                or not 0 < kappa <= 1:
+            raise BadInput(f"shear_factor: must be a number in (0, 1], got {kappa!r}")
+        try:
+            out = solve_mindlin(beam, modes, elements=elements, **options)
+        except (ValueError, ArithmeticError, RuntimeError) as exc:
+            raise BadInput(f"model 'mindlin': this planform cannot be solved reliably ({exc})") \
+                from None
+        # the plate's scale: lambda = (omega / omega_p)^2, now a function of t/L too
+        scale = plate_omega_scale(beam)
+        symmetric_entries = out["entries"]
     else:
         from .modes import SELECTIONS
         from .plate import plate_omega_scale, solve_plate

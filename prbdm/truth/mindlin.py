@@ -1,0 +1,223 @@
+"""Reissner-Mindlin plate truth: the Kirchhoff plate plus transverse shear and rotary inertia.
+
+Unknowns: the deflection ``w`` and the rotation vector ``beta = (beta_x, beta_y)``, written as
+the slopes of the normal (``beta ~ grad w`` in the thin limit; ``beta_x`` tilts the normal in the
+x-z plane). Energies per unit plate, with ``D = E t^3 / (12 (1 - nu^2))``, ``G = E / (2 (1 + nu))``
+and the shear factor ``kappa = 5/6``:
+
+    U = 1/2 int D [(1 - nu) eps(beta) : eps(beta) + nu div(beta)^2]
+              + kappa G t |grad w - beta|^2 dA,             eps = sym grad beta,
+    T = 1/2 omega^2 int rho t w^2 + rho t^3 / 12 |beta|^2 dA.
+
+Nondimensional form: ``xi = x / L``, ``W = w / L``, frequencies by the Kirchhoff plate's own scale
+``omega_p = sqrt(D / (rho t)) / L^2`` (:func:`prbdm.truth.plate.plate_omega_scale`), so that
+``omega = omega_p sqrt(lambda)`` as for the plate and ``lambda`` is independent of E and rho:
+
+    a_b(beta, beta) + alpha a_s(W, beta) = lambda [ m(W, W) + tau^2 / 12 m(beta, beta) ],
+    tau = t / L,   alpha = kappa G t L^2 / D = 6 kappa (1 - nu) / tau^2.
+
+Unlike the Kirchhoff plate, ``lambda`` depends on ``tau``: the shear term carries ``1 / tau^2``
+(shear flexibility lowers the frequencies by a relative ``O(tau^2 n^2)`` for the n-th mode) and
+the rotary inertia ``tau^2``. As ``tau -> 0`` the shear term forces ``beta = grad W`` and the
+problem becomes the Kirchhoff plate's.
+
+Element: equal-order Lagrange triangles of degree ``degree`` (default 4, scikit-fem's
+``ElementTriP4``) for all three fields. Low-order equal interpolation locks (the constraint
+``grad W = beta`` with continuous ``beta`` is satisfied only by C1 deflections, which low-degree
+continuous piecewise polynomials contain few of), and its error falls quickly with the degree.
+Measured at t/L = 0.001 on the default mesh (docs/truth.md, "``mindlin``: a shear-deformable
+plate truth"; Kirchhoff is exact to ~1e-5 there), ``mindlin / plate - 1`` on modes 1-4: P2 +0.7
+to +5 % (locked), P3 +0.02 to +0.11 %, P4 within 2e-5; the paper's panels (t/L 0.01-0.05) are
+thicker, hence further from locking. Mesh convergence of P4, default (``elements`` 12) against
+24: at most 1e-4 on modes 1-4 over the twelve panels of benchmarks/mindlin_vs_solid.py. Against
+3-D elasticity on the Table-2 beam (t/L = 0.041): -0.08/-0.11/-0.15/-0.21 % (Kirchhoff
++0.29/+0.99/+2.27/+4.08 %). MITC/mixed elements would be locking-free at any thickness but need
+an edge-element shear interpolation, which these numbers did not call for.
+
+Mesh: the Kirchhoff plate's own half mesh (:func:`prbdm.truth.plate.plate_mesh`), with the same
+options. Half model, symmetric (bending) family only: ``w(x, -y) = w(x, y)`` makes ``w`` and
+``beta_x`` even in y and ``beta_y`` odd, so ``beta_y = 0`` on ``y = 0`` and ``w``, ``beta_x`` are
+free there. Clamped root: ``w = beta_x = beta_y = 0`` on ``x = 0``. Eigenvalues: shift-invert
+Lanczos (:class:`prbdm.truth._linalg.ShiftInvertLanczos`) on the diagonally scaled matrices;
+bending modes selected on the deflection field by :mod:`prbdm.truth.modes`, as for the plate.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+from skfem import Basis, BilinearForm, ElementTriP2, ElementTriP3, ElementTriP4, LinearForm
+
+from ._linalg import ShiftInvertLanczos, refined_inverse
+from .modes import SECTION_THRESHOLD, section_fraction, select_bending
+from .plate import _scaled, _section_operators, plate_mesh
+
+__all__ = ["solve_mindlin", "shear_stiffness", "SHEAR_FACTOR", "DEFAULT_DEGREE", "DEGREES"]
+
+#: Reissner's / Mindlin's shear correction factor for a homogeneous plate
+SHEAR_FACTOR = 5.0 / 6.0
+#: polynomial degree of the Lagrange triangles (w, beta_x, beta_y)
+DEFAULT_DEGREE = 4
+DEGREES = {2: ElementTriP2, 3: ElementTriP3, 4: ElementTriP4}
+#: as in prbdm.truth.plate
+MAX_MODES_COMPUTED = 160
+LANCZOS_TOL = 1e-10
+
+
+def shear_stiffness(tau: float, nu: float, kappa: float = SHEAR_FACTOR) -> float:
+    """``alpha = kappa G t L^2 / D = 6 kappa (1 - nu) / tau^2``, the nondimensional shear
+    stiffness relative to the bending stiffness (``tau = t / L``)."""
+    return 6.0 * kappa * (1.0 - nu) / tau ** 2
+
+
+# scalar forms; the 3x3 block operator is put together in _matrices. ``u`` trial, ``v`` test.
+@BilinearForm
+def _dxdx(u, v, w):
+    return u.grad[0] * v.grad[0]
+
+
+@BilinearForm
+def _dydy(u, v, w):
+    return u.grad[1] * v.grad[1]
+
+
+@BilinearForm
+def _dydx(u, v, w):           # trial d/dy, test d/dx
+    return u.grad[1] * v.grad[0]
+
+
+@BilinearForm
+def _dxdy(u, v, w):           # trial d/dx, test d/dy
+    return u.grad[0] * v.grad[1]
+
+
+@BilinearForm
+def _dx0(u, v, w):            # trial d/dx, test value
+    return u.grad[0] * v
+
+
+@BilinearForm
+def _dy0(u, v, w):            # trial d/dy, test value
+    return u.grad[1] * v
+
+
+@BilinearForm
+def _mass(u, v, w):
+    return u * v
+
+
+@LinearForm
+def _load(v, w):
+    return v
+
+
+def _matrices(basis, nu: float, tau: float, kappa: float):
+    """Stiffness ``K`` and mass ``M`` on the unknowns ``[W, beta_x, beta_y]`` (each ``basis.N``)
+    and the load vector ``f`` (``int W``) of a uniform transverse acceleration."""
+    Kxx, Kyy = _dxdx.assemble(basis), _dydy.assemble(basis)
+    Kyx, M0 = _dydx.assemble(basis), _mass.assemble(basis)
+    Gx, Gy = _dx0.assemble(basis), _dy0.assemble(basis)   # rows: beta test; cols: W trial
+    a = shear_stiffness(tau, nu, kappa)
+    c = 0.5 * (1.0 - nu)
+    # bending, per unit D: (1 - nu) eps:eps + nu div^2 with eps_xy = (bx_y + by_x) / 2;
+    # block (test beta_y, trial beta_x) = int c bx_y by_x + nu bx_x by_y
+    Bxx = Kxx + c * Kyy
+    Byy = Kyy + c * Kxx
+    Byx = c * Kyx + nu * _dxdy.assemble(basis)   # rows beta_y test, cols beta_x trial
+    # shear, alpha |grad W - beta|^2: W-W alpha lap, beta-beta alpha mass, W-beta -alpha
+    Sww = a * (Kxx + Kyy)
+    K = sp.bmat([[Sww, -a * Gx.T, -a * Gy.T],
+                 [-a * Gx, Bxx + a * M0, Byx.T],
+                 [-a * Gy, Byx, Byy + a * M0]], format="csr")
+    r = tau ** 2 / 12.0
+    M = sp.block_diag([M0, r * M0, r * M0], format="csr")
+    f = np.concatenate([_load.assemble(basis), np.zeros(2 * basis.N)])
+    return K, M, f
+
+
+def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str = "section",
+                  degree: int = DEFAULT_DEGREE, shear_factor: float = SHEAR_FACTOR,
+                  **mesh_kwargs) -> dict:
+    """The kept symmetric bending modes: ``lam`` (nondimensional, ``omega = omega_p
+    sqrt(lam)``), ``participation``, ``entries`` (every computed symmetric mode), ``shapes``
+    and ``mesh``, as :func:`prbdm.truth.plate.solve_plate` returns them."""
+    if degree not in DEGREES:
+        raise ValueError(f"degree must be one of {sorted(DEGREES)}, got {degree!r}")
+    nu = beam.material.nu
+    tau = beam.thickness / beam.length
+    mesh, info = plate_mesh(beam, elements, modes, **mesh_kwargs)
+    basis = Basis(mesh, DEGREES[degree]())
+    N = basis.N
+    K, M, f = _matrices(basis, nu, tau, shear_factor)
+    area = float(f.sum())
+
+    ymax = float(mesh.p[1].max())
+    root = mesh.facets_satisfying(lambda x: x[0] < 1e-12)
+    axis = mesh.facets_satisfying(lambda x: x[1] < 1e-12 * max(ymax, 1.0))
+    root_dofs = basis.get_dofs(root).flatten()
+    axis_dofs = basis.get_dofs(axis).flatten()
+    # clamped root: all three fields; symmetry line: beta_y (the odd field) only
+    fixed = np.unique(np.concatenate([root_dofs, root_dofs + N, root_dofs + 2 * N,
+                                      axis_dofs + 2 * N]))
+    free = np.setdiff1d(np.arange(3 * N), fixed)
+
+    # section fractions of the deflection field, on the plate's span-wise hats
+    xq = np.asarray(basis.global_coordinates())[0]
+    quad = SimpleNamespace(xq=xq, dx=basis.dx)
+    hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
+    Hw, G = _section_operators(quad, hats)
+    G_lu = splu(G)
+
+    Kf = K[free][:, free].tocsr()
+    Mf = M[free][:, free].tocsr()
+    # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU
+    d = 1.0 / np.sqrt(Kf.diagonal())
+    Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
+    # one refinement step: the shear term (1/tau^2) makes K ill-conditioned for thin panels
+    op = refined_inverse(Kf, steps=1, spd=True)
+    n = Kf.shape[0]
+    want = int(modes)
+    cap = min(n - 2, MAX_MODES_COMPUTED)
+    k = min(cap, max(2 * want + 4, 12))
+    lanczos = ShiftInvertLanczos(op.matvec, Mf, np.ones(n), tol=LANCZOS_TOL)
+    while True:
+        _, vec = lanczos.eigs(k)
+        phi = np.zeros((3 * N, k))
+        phi[free] = vec * d[:, None]
+        # Rayleigh quotients of the unscaled fields
+        modal_mass = np.einsum("ik,ik->k", phi, M @ phi)
+        lam = np.einsum("ik,ik->k", phi, K @ phi) / modal_mass
+        order = np.argsort(lam, kind="stable")
+        lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
+        wq = np.stack([np.asarray(basis.interpolate(phi[:N, j])) for j in range(k)], axis=1)
+        sections = Hw @ np.transpose(wq, (0, 2, 1)).reshape(-1, k)
+        part = (f @ phi) ** 2 / (modal_mass * area)
+        frac = section_fraction(sections, G_lu, modal_mass)
+        kept, complete = select_bending(part, frac, want, selection)
+        if complete or k >= cap:
+            break
+        k = min(cap, 2 * k)
+
+    kept_idx = np.flatnonzero(kept)
+    if len(kept_idx) < want:
+        raise ValueError(f"found only {len(kept_idx)} bending modes among the first "
+                         f"{len(lam)} symmetric modes")
+    entries = [{"lambda": float(lam[i]), "participation": float(part[i]),
+                "section_fraction": float(frac[i]), "symmetry": "symmetric",
+                "kept": bool(kept[i]),
+                "ambiguous": bool(abs(frac[i] - SECTION_THRESHOLD) < 0.1)}
+               for i in range(len(lam))]
+    values = phi[basis.nodal_dofs[0]][:, kept_idx]        # W at the mesh vertices
+    scale = values[np.argmax(np.abs(values), axis=0), np.arange(len(kept_idx))]
+    scale[scale == 0] = 1.0
+    info["below_threshold_kept"] = int(np.sum(frac[kept_idx] < SECTION_THRESHOLD))
+    info.update({"element": f"Lagrange P{degree} triangles (w, beta_x, beta_y), Reissner-Mindlin,"
+                            " half model",
+                 "degree": int(degree), "dofs": int(3 * N), "triangles": int(mesh.t.shape[1]),
+                 "thickness_ratio": float(tau), "shear_factor": float(shear_factor),
+                 "symmetric_modes_computed": int(len(lam)), "selection": selection})
+    return {"lam": lam[kept_idx], "participation": part[kept_idx], "entries": entries,
+            "shapes": {"kind": "plate", "p": mesh.p, "t": mesh.t, "w": (values / scale).T},
+            "mesh": info}
