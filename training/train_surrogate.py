@@ -95,6 +95,8 @@ SETTINGS = {
     "cells": S(16, "feature cells along x / L"),
     "rfe_segments": S(96, "links of the rigid-finite-element frequency estimate"),
     "rfe_coarse": S(16, "> 0: that estimate by Rayleigh-Ritz from a chain of this many links"),
+    "spread": S(False, "add the same estimate with the 45-degree load-spread width's stiffness "
+                "(log_omega_spread, prbdm.surrogate.features) and correct that one: for plates"),
     "threads": S(1, "torch threads"),
     "quiet": S(False, "only the summary lines"),
 }
@@ -225,20 +227,20 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse)
+                       rfe_coarse=rfe_coarse, spread=spread)
 batch = sg.BeamBatch.from_table(table, material)
 feats = sg.features(batch, fspec)
 names = sg.feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
-rfe0 = 2 * cells
+base = fspec.base_columns(R)           # what the predicted log frequencies correct
 if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
     y_logk = np.log(np.stack(table["k"].to_numpy()))
 else:
     y_gamma = np.broadcast_to(sg.uniform_gamma(n), (N, n + 1)).copy()
     y_logk = np.zeros((N, m))
-y_corr = log_omega_hat - feats[:, rfe0:rfe0 + R]
+y_corr = log_omega_hat - feats[:, base]
 sha = sg.dataset_hash(table)
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index}; n = {n}, "
     f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; "
@@ -262,7 +264,7 @@ F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32, device=dev)
 Yg = torch.as_tensor(y_gamma, dtype=torch.float32, device=dev)
 Yk = torch.as_tensor(y_logk, dtype=torch.float32, device=dev)
 Yc = torch.as_tensor(y_corr, dtype=torch.float32, device=dev)
-RFE = torch.as_tensor(feats[:, rfe0:rfe0 + R], dtype=torch.float32, device=dev)
+RFE = torch.as_tensor(feats[:, base], dtype=torch.float32, device=dev)
 BX = torch.as_tensor(batch.x, device=dev)
 BW = torch.as_tensor(batch.w, device=dev)
 lam_hat = torch.as_tensor(omega_truth[:, :r] ** 2 / batch.lambda0[:, None], device=dev)

@@ -257,8 +257,7 @@ class Surrogate:
             W, b = layers[-1]
             outs.append((h @ W.T + b).astype(np.float64))
         out = combine_members(outs, self.member_hypotheses, self.joints)
-        rfe0 = 2 * self.feature_spec.cells
-        rfe = feats[:, rfe0:rfe0 + len(self.norm["freq_mean"])]
+        rfe = feats[:, self.feature_spec.base_columns(len(self.norm["freq_mean"]))]
         x, w = (batch.x, batch.w) if batch is not None else (None, None)
         return decode_numpy(out, self.norm, self.joints, self.k_mode, rfe, x, w, self.poses,
                             self.modes, self.hypotheses, self.select_poses)
@@ -407,8 +406,7 @@ class Surrogate:
                 if mu is None:
                     mu = prbdm_eigenvalues(batch.x, batch.w, gamma, self.poses)
                 pred.omega = np.sqrt(mu * pred.k[:, :, None]) * sq[:, :, None]
-        rfe0 = 2 * self.feature_spec.cells
-        rfe = feats[:, rfe0:rfe0 + len(self.norm["freq_mean"])]
+        rfe = feats[:, self.feature_spec.base_columns(len(self.norm["freq_mean"]))]
         pred.implausible, pred.problems = physical_problems(pred, rfe, batch)
         return pred
 
