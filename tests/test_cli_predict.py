@@ -166,11 +166,38 @@ def test_predict_default_checkpoint(capsys, beam_file, tmp_path, monkeypatch, ti
 
 @pytest.mark.skipif(not SHIPPED.is_file(), reason="no shipped n = 4 checkpoint")
 def test_predict_shipped_checkpoint(capsys, beam_file):
-    rc, out, err = run(capsys, "predict", beam_file(random_beam(0, 10 ** 6).to_dict()),
-                       "--joints", 4, "--json")
-    assert rc == 0, err
+    """A strip goes to the shipped beam network quietly; a wide panel of the paper's generator to
+    the shipped plate network (when shipped), whose answer says it is a rough estimate."""
+    strip = random_beam(0, 10 ** 6, max_half_width=0.02).to_dict()
+    rc, out, err = run(capsys, "predict", beam_file(strip), "--joints", 4, "--json")
+    assert rc == 0 and err == "", err
     o = json.loads(out)
     assert o["checkpoint"]["name"] == "beam-n4.safetensors" and len(o["gamma"]) == 5
+    if not (SHIPPED.parent / "plate-n4.safetensors").is_file():
+        return
+    rc, out, err = run(capsys, "predict", beam_file(random_beam(0, 10 ** 6).to_dict()),
+                       "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"] == "plate" and o["checkpoint"]["name"] == "plate-n4.safetensors"
+    assert "rough estimate" in err and any("rough estimate" in w for w in o["warnings"])
+
+
+@pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
+                    reason="no shipped plate network")
+def test_auto_falls_back_to_the_beam_network_when_the_plate_network_cannot_answer(capsys,
+                                                                                   beam_file):
+    """plate-n4 saw one Poisson's ratio (steel's 0.28): for a wide aluminium panel `--truth auto`
+    gives the answer to the beam network and says why and which physics it follows; asked for
+    explicitly, the plate network refuses (exit 2, one line, the remedy named)."""
+    alu = dict(random_beam(0, 7).to_dict(), material={"E": 69e9, "rho": 2700.0, "nu": 0.33})
+    path = beam_file(alu)
+    rc, out, err = run(capsys, "predict", path, "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["checkpoint"]["name"] == "beam-n4.safetensors" and o["truth"] == "beam"
+    assert "plate-n4.safetensors cannot answer this panel" in err and "nu = 0.33" in err
+    assert "follows the beam physics" in o["warnings"][-1]
+    assert_bad(*run(capsys, "predict", path, "--joints", 4, "--truth", "plate"),
+               "nu = 0.33", "--allow-extrapolation")
 
 
 def test_compare_runs(capsys, beam_file, tiny_set):

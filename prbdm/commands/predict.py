@@ -196,20 +196,22 @@ def network_truth(args, choice) -> str | None:
         return None
 
 
-def truth_reason(beam, sur, asked, choice) -> tuple[str, str | None]:
+def truth_reason(beam, sur, asked, choice, declined=None) -> tuple[str, str | None]:
     """Why the prediction follows its checkpoint's truth, and a warning when ``--truth auto``
     (the default; ``choice`` is its (truth, reason)) would take another for this panel: a beam
     network's answer for a panel wider than 0.05 L follows the beam's physics, which the
-    plate's differs from (issue 16)."""
+    plate's differs from (issue 16). ``declined``: why the network of the chosen truth did not
+    answer (it was found but refused this panel)."""
     if asked is not None or choice is None:
         return f"--truth {asked} as asked (checkpoint {sur.name})", None
     model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
+    missing = declined or f"no {model} network is shipped"
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
-            f"faithful truth is the {model} (`--truth auto`), but no {model} network is "
-            f"shipped, so this answer follows the {sur.truth} physics (on the paper's wide "
+            f"faithful truth is the {model} (`--truth auto`), but {missing}, "
+            f"so this answer follows the {sur.truth} physics (on the paper's wide "
             "panels the beam is a median 2-15 % off the plate on modes 1-4, docs/truth.md); "
             f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
@@ -218,14 +220,28 @@ def predict_command(args) -> int:
     import time
 
     choice = auto_choice(args)
-    sur = load_surrogate(args, network_truth(args, choice))
+    chosen = network_truth(args, choice)
+    sur = load_surrogate(args, chosen)
     # refuses what `prbdm truth --model TRUTH` refuses, with the same message
     beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
-    out = predict_one(sur, beam, args.allow_extrapolation)
+    declined = None
+    try:
+        out = predict_one(sur, beam, args.allow_extrapolation)
+    except BadInput as exc:
+        if chosen is None:                       # asked for, or the beam network: its refusal
+            raise
+        # `--truth auto` chose this network, which cannot answer this panel (a feature it never
+        # saw vary, such as nu): the beam network answers, and says which physics it follows
+        from ..geometry import check_beam
+
+        declined = f"{sur.name} cannot answer this panel ({exc})"
+        sur = load_surrogate(args, "beam")
+        check_beam(beam, sur.truth)          # read (and warned about) once, above
+        out = predict_one(sur, beam, args.allow_extrapolation)
     out["time_s"] = time.perf_counter() - t0
     out["input"] = info
-    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice)
+    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice, declined)
     if wrong_physics:
         out["warnings"].append(wrong_physics)
     for w in out["warnings"]:
