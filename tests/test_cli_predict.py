@@ -200,6 +200,25 @@ def test_auto_falls_back_to_the_beam_network_when_the_plate_network_cannot_answe
                "nu = 0.33", "--allow-extrapolation")
 
 
+@pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
+                    reason="no shipped plate network")
+def test_compare_takes_the_truth_auto_chooses(capsys, beam_file):
+    """Without --truth, compare measures against the truth `--truth auto` chooses (issue 16
+    item 5): the plate, with the plate network, for a wide panel (its rough-estimate warning in
+    the JSON); the beam and the beam network for a 2 cm strip."""
+    wide = beam_file({"x": [0, 0.4, 1], "half_width": [0.3, 0.2, 0.1], "thickness": 0.02})
+    rc, out, err = run(capsys, "compare", wide, "--joints", 4, "--starts", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"]["model"] == "plate" and o["truth"]["reason"].startswith("auto:")
+    assert o["checkpoint"]["truth"] == "plate"
+    assert any("rough estimate" in w for w in o["warnings"])
+    strip = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.004})
+    rc, out, err = run(capsys, "compare", strip, "--joints", 4, "--starts", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"]["model"] == "beam" and o["checkpoint"]["truth"] == "beam"
+    assert o["warnings"] == []
+
+
 def test_compare_runs(capsys, beam_file, tiny_set):
     ck = str(tiny_checkpoint(tiny_set))
     rc, out, err = run(capsys, "compare", beam_file(), "--joints", 2, "--checkpoint", ck,

@@ -2,7 +2,10 @@
 
 Four ways to get the PRBDM of one beam, side by side:
 
-- ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against);
+- ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against; by
+  default ``auto`` as in ``prbdm predict``: the plate for a panel wider than 0.05 L, with the
+  plate network when one is found and can answer the panel, else the beam network measured
+  against the plate, said in ``warnings``);
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``), minimising
@@ -16,7 +19,7 @@ For each: the loss (docs/conventions.md §3, %), the per-mode frequency error (w
 time (the computation itself; start-up and imports excluded; ``refined`` excludes the network's
 own time, given on its row).
 
-JSON (``--json``): ``truth`` (model, omega, freq_hz, time_s), ``network``, ``network_direct``,
+JSON (``--json``): ``truth`` (model, reason, omega, freq_hz, time_s), ``network``, ``network_direct``,
 ``fit``, ``refined`` (each with gamma, k, omega per pose, loss_percent, freq_error per mode,
 time_s; ``network_direct``: omega, freq_error per mode), ``joints``, ``modes``, ``checkpoint``,
 ``warnings``.
@@ -30,6 +33,7 @@ import time
 import numpy as np
 
 from ..constants import REFINE_ITER
+from ..errors import BadInput
 from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
 from .predict import add_extrapolation_argument, add_objective_argument, load_surrogate
 
@@ -39,7 +43,9 @@ def add_arguments(parser):
     parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
                         help="number of revolute joints n (a checkpoint must exist for it)")
     parser.add_argument("--truth", choices=("beam", "plate"), default=None,
-                        help="truth model (default: the checkpoint's)")
+                        help="truth model and network (default: auto, as prbdm predict: the "
+                             "plate for a panel wider than 0.05 L, with the plate network when "
+                             "one is found, else the beam network measured against the plate)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (default: the packaged one for --joints, "
                              "--truth)")
@@ -69,22 +75,51 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    sur = load_surrogate(args)
-    beam, info = read_beam(args, "compare", model=sur.truth)
+    from .predict import auto_choice, network_truth
+
+    # `--truth auto` (no --truth): the truth the panel needs, and that truth's network when one
+    # is found and can answer this panel; otherwise the beam network, measured against it
+    choice = auto_choice(args)
+    sur = load_surrogate(args, network_truth(args, choice))
+    if choice is not None and args.checkpoint is None:
+        model, reason = choice
+    else:
+        model = sur.truth
+        reason = f"--truth {args.truth} as asked" if args.truth else "the checkpoint's truth"
+    beam, info = read_beam(args, "compare", model=model)
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
 
+    def network_prediction(sur):
+        with _w.catch_warnings():
+            _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
+            _w.simplefilter("ignore", surrogate.ImplausiblePredictionWarning)
+            _w.simplefilter("ignore", surrogate.LowAccuracyWarning)  # in the JSON, below
+            t0 = time.perf_counter()
+            pred = sur.predict(beam, frequencies=True,
+                               allow_extrapolation=args.allow_extrapolation)
+            return pred, time.perf_counter() - t0
+
+    notes = []
+    try:
+        pred, t_net = network_prediction(sur)
+    except BadInput as exc:
+        if args.truth is not None or args.checkpoint is not None or sur.truth == "beam":
+            raise
+        notes.append(f"{sur.name} cannot answer this panel ({exc}); the beam network is "
+                     "measured instead")
+        sur = load_surrogate(args, "beam")
+        pred, t_net = network_prediction(sur)
+    if sur.accuracy_warning():
+        notes.append(sur.accuracy_warning())
+    if sur.truth != model:
+        notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
+                     f"truth this panel needs (`--truth auto`: {reason})")
+
     from ..truth import bending_frequencies
 
-    truth = bending_frequencies(beam, model=sur.truth, modes=max(R, n))
+    truth = bending_frequencies(beam, model=model, modes=max(R, n))
     omega_t = np.asarray(truth.omega, dtype=np.float64)
-
-    with _w.catch_warnings():
-        _w.simplefilter("ignore", surrogate.OutOfDistributionWarning)
-        _w.simplefilter("ignore", surrogate.ImplausiblePredictionWarning)
-        t0 = time.perf_counter()
-        pred = sur.predict(beam, frequencies=True, allow_extrapolation=args.allow_extrapolation)
-        t_net = time.perf_counter() - t0
 
     import torch
 
@@ -125,7 +160,7 @@ def run(args) -> int:
     direct = pred.omega_truth[0][:Rd]
     out = {
         "joints": n, "modes": r, "objective": sur.objective, "checkpoint": sur.describe(),
-        "truth": {"model": truth.model, "omega": omega_t.tolist(),
+        "truth": {"model": truth.model, "reason": reason, "omega": omega_t.tolist(),
                   "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},
         "network": method(pred.gamma[0], pred.k[0], pred.omega[0], t_net),
         "network_direct": {"omega": direct.tolist(),
@@ -136,7 +171,7 @@ def run(args) -> int:
         "refined": {**method(ref.gamma, ref.k, ref.omega, t_ref),
                     "max_iter": args.refine_iter},
         # an implausible network prediction is shown beside the others here, and said so
-        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings + pred.problems],
+        "warnings": [w.replace("beam 0: ", "") for w in pred.warnings + pred.problems] + notes,
         "input": info,
     }
     for w in out["warnings"]:
