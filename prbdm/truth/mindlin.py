@@ -48,11 +48,13 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
-from skfem import Basis, BilinearForm, ElementTriP2, ElementTriP3, ElementTriP4, LinearForm
+from skfem import Basis, BilinearForm, ElementTriP2, ElementTriP3, ElementTriP4
 
 from ._linalg import ShiftInvertLanczos, refined_inverse
 from .modes import SECTION_THRESHOLD, section_fraction, select_bending
 from .plate import _scaled, _section_operators, plate_mesh
+from .plate import load as _load
+from .plate import mass as _mass
 
 __all__ = ["solve_mindlin", "shear_stiffness", "SHEAR_FACTOR", "DEFAULT_DEGREE", "DEGREES"]
 
@@ -101,16 +103,6 @@ def _dx0(u, v, w):            # trial d/dx, test value
 @BilinearForm
 def _dy0(u, v, w):            # trial d/dy, test value
     return u.grad[1] * v
-
-
-@BilinearForm
-def _mass(u, v, w):
-    return u * v
-
-
-@LinearForm
-def _load(v, w):
-    return v
 
 
 def _matrices(basis, nu: float, tau: float, kappa: float):
