@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -114,9 +113,8 @@ def main(argv=None) -> int:
            "thin_limit": thin, "panels": rows,
            "median_time_s": {"mindlin": t_m, "plate": t_p}}
     path = Path(args.json)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(out, indent=1, default=float) + "\n")
-    os.replace(tmp, path)
+    from prbdm.files import atomic_write
+    atomic_write(path, json.dumps(out, indent=1, default=float) + "\n")
     return 0
 
 

@@ -219,6 +219,23 @@ def test_compare_takes_the_truth_auto_chooses(capsys, beam_file):
     assert o["warnings"] == []
 
 
+def test_a_beam_on_standard_input_is_read_once_for_truth_auto():
+    """`--truth auto` looks at the panel's width before the beam is read for good: with BEAM `-`
+    standard input must still be there for the second read (predict and compare)."""
+    wide = json.dumps({"x": [0, 0.4, 1], "half_width": [0.3, 0.2, 0.1], "thickness": 0.02})
+    for argv in (["predict", "-", "--joints", "4", "--json"],
+                 ["compare", "-", "--joints", "4", "--starts", "2", "--json"]):
+        p = subprocess.run([sys.executable, "-c", BOOT + "; sys.exit(cli.main(sys.argv[1:]))",
+                            *argv], input=wide, capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0, p.stderr
+        out = json.loads(p.stdout)
+        assert (out["truth"] if argv[0] == "predict" else out["truth"]["model"]) == "plate"
+    p = subprocess.run([sys.executable, "-c", BOOT + "; sys.exit(cli.main(sys.argv[1:]))",
+                        "predict", "-", "--joints", "4"], input="not json", capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 2 and "standard input is not valid JSON" in p.stderr
+
+
 def test_compare_runs(capsys, beam_file, tiny_set):
     ck = str(tiny_checkpoint(tiny_set))
     rc, out, err = run(capsys, "compare", beam_file(), "--joints", 2, "--checkpoint", ck,

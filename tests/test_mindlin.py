@@ -128,3 +128,15 @@ def test_cli(beam_file):
                            "mindlin", "--modes", "31"], capture_output=True, text=True)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and "modes" in proc.stderr
+
+
+def test_kappa_is_refused_with_the_name_of_the_shear_factor():
+    """`kappa` is the plate mesher's option; for mindlin it would silently change the mesh while
+    meaning the shear factor to a reader, so it is refused, naming `shear_factor`."""
+    from prbdm.errors import BadInput
+    from prbdm.geometry import Beam
+    from prbdm.truth import bending_frequencies
+
+    beam = Beam([0.0, 1.0], [0.25, 0.25], 0.04)
+    with pytest.raises(BadInput, match="shear_factor"):
+        bending_frequencies(beam, "mindlin", 2, kappa=0.8)

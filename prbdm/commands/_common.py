@@ -52,10 +52,18 @@ def peek_beam(args):
     properly and reports any problem)."""
     from ..geometry import load_beam
 
+    if str(args.beam) == "-":
+        # standard input can be read once: keep its text for read_beam, which reads it again
+        import io
+
+        sys.stdin = io.StringIO(sys.stdin.read())
     try:
         return load_beam(args.beam)
     except BadInput:
         return None
+    finally:
+        if str(args.beam) == "-":
+            sys.stdin.seek(0)
 
 
 #: optional module -> the extra of pyproject.toml that installs it

@@ -33,7 +33,6 @@ import time
 import numpy as np
 
 from ..constants import REFINE_ITER
-from ..errors import BadInput
 from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
 from .predict import add_extrapolation_argument, add_objective_argument, load_surrogate
 
@@ -42,7 +41,7 @@ def add_arguments(parser):
     add_beam_argument(parser)
     parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
                         help="number of revolute joints n (a checkpoint must exist for it)")
-    parser.add_argument("--truth", choices=("beam", "plate"), default=None,
+    parser.add_argument("--truth", choices=("beam", "plate", "auto"), default=None,
                         help="truth model and network (default: auto, as prbdm predict: the "
                              "plate for a panel wider than 0.05 L, with the plate network when "
                              "one is found, else the beam network measured against the plate)")
@@ -75,20 +74,21 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    from .predict import auto_choice, network_truth
+    from .predict import answer_or_fall_back, auto_choice, network_truth
 
-    # `--truth auto` (no --truth): the truth the panel needs, and that truth's network when one
+    # `--truth auto` (the default): the truth the panel needs, and that truth's network when one
     # is found and can answer this panel; otherwise the beam network, measured against it
+    if args.truth == "auto":
+        args.truth = None
     choice = auto_choice(args)
-    sur = load_surrogate(args, network_truth(args, choice))
+    chosen = network_truth(args, choice)
+    sur = load_surrogate(args, chosen)
     if choice is not None and args.checkpoint is None:
         model, reason = choice
     else:
         model = sur.truth
         reason = f"--truth {args.truth} as asked" if args.truth else "the checkpoint's truth"
     beam, info = read_beam(args, "compare", model=model)
-    n, r = sur.joints, sur.modes
-    R = len(sur.norm["freq_mean"])
 
     def network_prediction(sur):
         with _w.catch_warnings():
@@ -101,15 +101,12 @@ def run(args) -> int:
             return pred, time.perf_counter() - t0
 
     notes = []
-    try:
-        pred, t_net = network_prediction(sur)
-    except BadInput as exc:
-        if args.truth is not None or args.checkpoint is not None or sur.truth == "beam":
-            raise
-        notes.append(f"{sur.name} cannot answer this panel ({exc}); the beam network is "
-                     "measured instead")
-        sur = load_surrogate(args, "beam")
-        pred, t_net = network_prediction(sur)
+    sur, (pred, t_net), declined = answer_or_fall_back(args, sur, chosen, network_prediction,
+                                                       beam)
+    if declined:
+        notes.append(f"{declined}; the beam network is measured instead")
+    n, r = sur.joints, sur.modes
+    R = len(sur.norm["freq_mean"])
     if sur.accuracy_warning():
         notes.append(sur.accuracy_warning())
     if sur.truth != model:

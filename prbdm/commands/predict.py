@@ -10,7 +10,8 @@ The checkpoint is ``--checkpoint PATH``, or the default one for (``--joints``, `
 corrupt or inconsistent). A beam whose features fall outside the range seen in training gets a
 warning naming the feature (stderr; also in ``warnings`` of the JSON); a feature that did not vary
 in training at all (e.g. nu for a plate network trained on one material) is refused (exit 2)
-unless ``--allow-extrapolation``. A prediction that is non-finite or outside physical ranges
+unless ``--allow-extrapolation``; when ``--truth auto`` (the default) chose that network, the beam
+network answers instead and the warning says why. A prediction that is non-finite or outside physical ranges
 (:func:`prbdm.surrogate.physical_problems`) is an error: exit 2 when the beam lies outside the
 training range, exit 1 otherwise (the checkpoint's fault), one line on stderr, never a number.
 Any other failure is one line and exit 1 too, with or without ``--json``.
@@ -40,9 +41,10 @@ def add_arguments(parser):
     add_beam_argument(parser)
     parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
                         help="number of revolute joints n (a checkpoint must exist for it)")
-    parser.add_argument("--truth", choices=TRUTHS, default=None,
-                        help="truth model the network was trained on (default: the "
-                             "checkpoint's, or 'beam' to pick the default checkpoint)")
+    parser.add_argument("--truth", choices=(*TRUTHS, "auto"), default=None,
+                        help="truth model the network was trained on (default auto: the "
+                             "plate's network for a panel wider than 0.05 L when one is found, "
+                             "else the beam's; with --checkpoint, the checkpoint's)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (.safetensors); default: the packaged one for "
                              "--joints and --truth")
@@ -196,18 +198,21 @@ def network_truth(args, choice) -> str | None:
         return None
 
 
-def truth_reason(beam, sur, asked, choice, declined=None) -> tuple[str, str | None]:
+def truth_reason(beam, sur, asked, choice, declined=None,
+                 given=False) -> tuple[str, str | None]:
     """Why the prediction follows its checkpoint's truth, and a warning when ``--truth auto``
     (the default; ``choice`` is its (truth, reason)) would take another for this panel: a beam
     network's answer for a panel wider than 0.05 L follows the beam's physics, which the
     plate's differs from (issue 16). ``declined``: why the network of the chosen truth did not
-    answer (it was found but refused this panel)."""
+    answer (it was found but refused this panel); ``given``: the network was named by
+    --checkpoint."""
     if asked is not None or choice is None:
         return f"--truth {asked} as asked (checkpoint {sur.name})", None
     model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
-    missing = declined or f"no {model} network is shipped"
+    missing = declined or (f"--checkpoint {sur.name} was given" if given
+                           else f"no {model} network is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
             f"faithful truth is the {model} (`--truth auto`), but {missing}, "
@@ -216,32 +221,43 @@ def truth_reason(beam, sur, asked, choice, declined=None) -> tuple[str, str | No
             f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
 
+def answer_or_fall_back(args, sur, chosen, answer, beam):
+    """(network, answer(network), declined): the answer of the network `--truth auto` chose
+    (``chosen``, from :func:`network_truth`); when that network refuses this panel (BadInput: a
+    feature it never saw vary, such as nu, or an implausible answer outside its range), the beam
+    network's answer instead, with ``declined`` saying why. A network that was asked for
+    (``--truth``, ``--checkpoint``) or the beam network itself: its refusal stands."""
+    try:
+        return sur, answer(sur), None
+    except BadInput as exc:
+        if chosen is None:
+            raise
+        from ..geometry import check_beam
+
+        beam_net = load_surrogate(args, "beam")
+        check_beam(beam, beam_net.truth)     # the beam was read (and warned about) once already
+        return beam_net, answer(beam_net), f"{sur.name} cannot answer this panel ({exc})"
+
+
 def predict_command(args) -> int:
     import time
 
+    if args.truth == "auto":          # the default, spelled out
+        args.truth = None
     choice = auto_choice(args)
     chosen = network_truth(args, choice)
     sur = load_surrogate(args, chosen)
     # refuses what `prbdm truth --model TRUTH` refuses, with the same message
     beam, info = read_beam(args, "predict", model=sur.truth)
     t0 = time.perf_counter()
-    declined = None
-    try:
-        out = predict_one(sur, beam, args.allow_extrapolation)
-    except BadInput as exc:
-        if chosen is None:                       # asked for, or the beam network: its refusal
-            raise
-        # `--truth auto` chose this network, which cannot answer this panel (a feature it never
-        # saw vary, such as nu): the beam network answers, and says which physics it follows
-        from ..geometry import check_beam
-
-        declined = f"{sur.name} cannot answer this panel ({exc})"
-        sur = load_surrogate(args, "beam")
-        check_beam(beam, sur.truth)          # read (and warned about) once, above
-        out = predict_one(sur, beam, args.allow_extrapolation)
+    # `--truth auto` may have chosen a network that cannot answer this panel (a feature it never
+    # saw vary, such as nu): the beam network answers then, and says which physics it follows
+    sur, out, declined = answer_or_fall_back(
+        args, sur, chosen, lambda s: predict_one(s, beam, args.allow_extrapolation), beam)
     out["time_s"] = time.perf_counter() - t0
     out["input"] = info
-    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice, declined)
+    out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice, declined,
+                                                      args.checkpoint is not None)
     if wrong_physics:
         out["warnings"].append(wrong_physics)
     for w in out["warnings"]:

@@ -6,7 +6,8 @@ The head of a network with H candidate segmentations is H (n + 1) gamma logits, 
 per pose) and R frequency corrections. Every decoded output is valid by construction:
 ``gamma = g_min + (1 - (n+1) g_min) softmax(.)`` (sum 1, each in [0.025, 0.975]), ``k = exp(.)``
 or a least-squares projection of positive eigenvalues (> 0), and
-``log omega_hat = log_omega_rfe + correction``.
+``log omega_hat = base + correction``, the base being ``log_omega_rfe`` (``log_omega_spread`` for
+a ``spread`` network, ``FeatureSpec.base_columns``).
 """
 from __future__ import annotations
 
@@ -77,7 +78,7 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
 
     - ``gamma = g_min + (1 - (n+1) g_min) softmax(logits)``: on the bounded simplex, for each of
       the H candidate segmentations (``hypotheses``);
-    - ``log omega_hat = log_omega_rfe + out[:, -R:] * freq_std + freq_mean``: the truth
+    - ``log omega_hat = base + out[:, -R:] * freq_std + freq_mean`` (base: ``FeatureSpec.base_columns``): the truth
       frequencies / sqrt(E t^2 / (rho L^4)), as a correction of the rigid-finite-element estimate;
     - ``k``, per pose, in one of two ways (``k_mode``):
       ``direct``: ``log k = out * logk_std + logk_mean`` (H = 1 only);

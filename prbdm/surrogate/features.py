@@ -22,9 +22,10 @@ the *load-spread* half-width ``w_s(x) = min_x' (w(x') + |x - x'|)`` (x, w in uni
 mass of the real one. In a wide plate, bending stress leaves a narrow neck at about 45 degrees:
 the flanges right beside a neck move with it but carry little of its moment, which the beam (full
 width effective everywhere) misses. On 3,000 panels of the plate data set the scatter of
-``log omega_plate - log omega_chain`` (std, modes 1-4) is 0.096 / 0.088 / 0.22 / 0.35 with the
-beam's chain and 0.035 / 0.037 / 0.18 / 0.33 with the spread chain (slopes 0.5 and 2: 0.078 /
-0.064 and 0.037 / 0.050): a classical engineering rule that explains most of modes 1-2 and is
+``log omega_plate - log omega_chain`` (std, modes 1-4) is 0.095 / 0.087 / 0.22 / 0.35 with the
+beam's chain and 0.038 / 0.038 / 0.18 / 0.33 with the spread chain, as computed here (with the
+exact 95-joint chain on an 801-point grid, slope 1 gives 0.035 / 0.037 on modes 1-2, slope 0.5
+0.078 / 0.064, slope 2 0.037 / 0.050): a classical engineering rule that explains most of modes 1-2 and is
 the network's base for the plate frequencies (:meth:`FeatureSpec.base_columns`). Modes 3-4 are
 left to the network; many of them are mixed bending-chordwise modes (docs/surrogate.md §5).
 """
@@ -67,7 +68,9 @@ def spread_half_width(x, w, slope: float = SPREAD_SLOPE, points: int = SPREAD_PO
     """The load-spread half-width ``w_s(x) = min_x' (w(x') + slope |x - x'|)`` of planforms with
     stations ``x`` (B, S) and half-widths ``w`` (B, S), both in units of L: (x_grid (B, P),
     w_s (B, P)). Exact at the grid points: for a piecewise-linear w the minimum over x' lies at a
-    station or at x' = x."""
+    station or at x' = x. Between them the chain reads it as linear, which can exceed w at a
+    neck narrower than the grid spacing (1 / (P - 1) L); the trained networks' features are
+    defined with this grid, so it is part of the feature, not to be refined alone."""
     B, S = x.shape
     xg = np.linspace(0.0, 1.0, points)
     # w at the grid points, every row at once: the rows shifted apart (x in [0, 1]) so that one
@@ -178,7 +181,8 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec()) -> np.ndarray:
     """(B, F) features of the planforms (see the module docstring; names: :func:`feature_names`).
 
     Invariant to scaling all half-widths, the thickness, the length, E and rho (beam truth);
-    the plate truth adds ``log_aspect`` and ``nu``.
+    the plate truth adds ``log_aspect`` and ``nu``, and ``spread`` ``log_omega_spread``, which
+    depends on ``w / L`` itself (not only on the shape ``w / max(w)``).
     """
     if len(batch) > CHUNK:      # the Ritz arrays are (B, 95, 8): bounded pieces
         return np.concatenate([features(batch.take(slice(i, i + CHUNK)), spec)

@@ -7,7 +7,8 @@
   (:class:`BadInput`) unless ``allow_extrapolation``.
 - Every prediction is checked against physical ranges (:func:`physical_problems`): finite, gamma
   in (0, 1], k in :data:`K_RANGE`, frequencies ascending and within :data:`FREQ_FACTOR` of the
-  equal-link chain's (the ``log_omega_rfe`` features). A prediction that fails is flagged in
+  equal-link chain's (the ``log_omega_rfe`` or, for a ``spread`` network, ``log_omega_spread``
+  features: :meth:`FeatureSpec.base_columns`). A prediction that fails is flagged in
   ``Prediction.implausible``, explained in ``Prediction.problems`` and warned about
   (:class:`ImplausiblePredictionWarning`); ``prbdm predict`` makes it an error.
 """
@@ -42,7 +43,7 @@ PIECE = 1024
 #: failure, not a beam's property
 K_RANGE = (1e-6, 1e6)
 #: largest factor between a predicted frequency and the equal-link chain's estimate of it (the
-#: log_omega_rfe features, a rigid-finite-element model of the same beam): the truth and a PRBDM
+#: log_omega_rfe / log_omega_spread features, a rigid-finite-element model of the same beam): the truth and a PRBDM
 #: of the beam are within a few tens of percent of it, so a factor of 10 is a broken prediction
 FREQ_FACTOR = 10.0
 
@@ -416,7 +417,8 @@ def physical_problems(pred: Prediction, rfe: np.ndarray, batch: BeamBatch | None
     outside (0, 1], k outside :data:`K_RANGE`, predicted truth frequencies not ascending, or any
     frequency (the truth's prediction, and the PRBDM's per pose for the modes the features
     estimate) more than :data:`FREQ_FACTOR` from the equal-link chain's estimate ``rfe``
-    (B, R) = log_omega_rfe (nondimensional). Vectorised: it runs on every batch."""
+    (B, R) = the base features (``FeatureSpec.base_columns``: log_omega_rfe or log_omega_spread;
+    nondimensional). Vectorised: it runs on every batch."""
     B, R = pred.log_omega_hat.shape
     limit = math.log(FREQ_FACTOR)
     checks = []             # (B,) mask and the text for a beam it flags, in the order reported

@@ -121,6 +121,9 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         from .modes import SELECTIONS
         from .plate import plate_omega_scale
         t0 = time.perf_counter()
+        if "kappa" in options:      # the mesher's option of that name, not the shear factor
+            raise BadInput("model 'mindlin': option 'kappa' is the plate mesher's, not the "
+                           "shear factor; the shear factor is 'shear_factor' (default 5/6)")
         unknown = set(options) - _MESH_OPTIONS - {"selection", "degree", "shear_factor"}
         if unknown:
             raise BadInput(f"model 'mindlin': unknown option {sorted(unknown)[0]!r}")
@@ -147,8 +150,7 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         from .modes import SELECTIONS
         from .plate import plate_omega_scale, solve_plate
         t0 = time.perf_counter()
-        unknown = set(options) - {"selection", "mesher", "grade", "corner_ratio", "across",
-                                   "smooth", "kappa", "chord_elements"}
+        unknown = set(options) - _MESH_OPTIONS - {"selection"}
         if unknown:
             raise BadInput(f"model 'plate': unknown option {sorted(unknown)[0]!r}")
         if options.get("selection", "section") not in SELECTIONS:

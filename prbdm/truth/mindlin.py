@@ -185,8 +185,12 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
         lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
         wq = np.stack([np.asarray(basis.interpolate(phi[:N, j])) for j in range(k)], axis=1)
         sections = Hw @ np.transpose(wq, (0, 2, 1)).reshape(-1, k)
-        part = (f @ phi) ** 2 / (modal_mass * area)
-        frac = section_fraction(sections, G_lu, modal_mass)
+        # the plate's selection measures, on the deflection's own (translational) modal mass:
+        # with the rotary inertia in it, both would sit lower by about (t/L)^2/12 of the
+        # rotations' share and could flip a close call near 1/2 that the plate keeps
+        mass_w = np.einsum("ik,ik->k", phi[:N], M[:N, :N] @ phi[:N])
+        part = (f @ phi) ** 2 / (mass_w * area)
+        frac = section_fraction(sections, G_lu, mass_w)
         kept, complete = select_bending(part, frac, want, selection)
         if complete or k >= cap:
             break
