@@ -219,6 +219,22 @@ def test_compare_takes_the_truth_auto_chooses(capsys, beam_file):
     assert o["warnings"] == []
 
 
+@pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
+                    reason="no shipped plate network")
+def test_auto_does_not_give_a_panel_to_an_extrapolating_plate_network(capsys, beam_file):
+    """The README's tapered panel is 0.36 L wide, narrower than any panel plate-n4 saw (0.4-1 L):
+    `--truth auto` gives it to the beam network (measured closer to the plate there, see
+    answer_or_fall_back) and says why; `--truth plate` still answers, with the range warning."""
+    panel = beam_file({"x": [0.0, 0.35, 1.0], "half_width": [0.18, 0.12, 0.05],
+                       "thickness": 0.03})
+    rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["checkpoint"]["name"] == "beam-n4.safetensors"
+    assert "log_aspect" in err and "it would extrapolate" in err
+    rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--truth", "plate", "--json")
+    assert rc == 0 and json.loads(out)["truth"] == "plate" and "outside the training range" in err
+
+
 def test_a_beam_on_standard_input_is_read_once_for_truth_auto():
     """`--truth auto` looks at the panel's width before the beam is read for good: with BEAM `-`
     standard input must still be there for the second read (predict and compare)."""
@@ -366,8 +382,14 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     # beam, so the answer names that too)
     shutil.copy(tiny_checkpoint(tiny_set), folder / "plate-n2.safetensors")
     shutil.copy(tiny_checkpoint(tiny_set).with_suffix(".json"), folder / "plate-n2.json")
-    rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
+    inside = beam_file(random_beam(3, 0).to_dict())       # one of its own training panels
+    rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("plate-n2.safetensors")
+    # outside its range, `--truth auto` does not give the panel to it (answer_or_fall_back)
+    taper = beam_file({"x": [0, 1], "half_width": [0.45, 0.02], "thickness": 0.01})
+    rc, out, err = run(capsys, "predict", taper, "--joints", 2, "--json")
+    assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("beam-n2.safetensors")
+    assert "would extrapolate" in err
 
 
 # ------------------------------------------------------------------------ no silent wrong answers

@@ -223,11 +223,19 @@ def truth_reason(beam, sur, asked, choice, declined=None,
 
 def answer_or_fall_back(args, sur, chosen, answer, beam):
     """(network, answer(network), declined): the answer of the network `--truth auto` chose
-    (``chosen``, from :func:`network_truth`); when that network refuses this panel (BadInput: a
-    feature it never saw vary, such as nu, or an implausible answer outside its range), the beam
-    network's answer instead, with ``declined`` saying why. A network that was asked for
-    (``--truth``, ``--checkpoint``) or the beam network itself: its refusal stands."""
+    (``chosen``, from :func:`network_truth`); when this panel lies outside that network's
+    training range, or the network refuses it (BadInput: a feature it never saw vary, such as
+    nu, or an implausible answer), the beam network's answer instead, with ``declined`` saying
+    why: an extrapolating plate network was measured worse than the beam network (the README's
+    0.36 L panel: modes 1-4 2.0 / 1.3 / 2.4 / 13 % from the plate against 0.8 / 0.9 / 1.1 / 1.3 %;
+    `plate-n4` saw full widths of 0.4-1 L only). A network that was asked for (``--truth``,
+    ``--checkpoint``) or the beam network itself: its answer or refusal stands."""
     try:
+        if chosen is not None:
+            bad, texts = sur.check_range(sur.features([beam]))
+            if bad.any():
+                raise BadInput(texts[0].replace("beam 0: ", "").replace(
+                    "the prediction is an extrapolation", "it would extrapolate"))
         return sur, answer(sur), None
     except BadInput as exc:
         if chosen is None:
