@@ -107,8 +107,7 @@ def run(args) -> int:
         notes.append(f"{declined}; the beam network is measured instead")
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
-    if sur.accuracy_warning():
-        notes.append(sur.accuracy_warning())
+    notes += [w for w in (sur.accuracy_warning(),) if w]
     if sur.truth != model:
         notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
                      f"truth this panel needs (`--truth auto`: {reason})")

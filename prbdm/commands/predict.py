@@ -149,7 +149,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings]
-        + ([sur.accuracy_warning()] if sur.accuracy_warning() else []),
+        + [w for w in (sur.accuracy_warning(),) if w],
         "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }

@@ -116,51 +116,42 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         out = solve_beam(beam, modes, elements=elements, **options)
         scale = beam_omega_scale(beam)
         symmetric_entries = None
-    elif model == "mindlin":
-        from .mindlin import DEGREES, solve_mindlin
+    else:
+        # plate and mindlin: the same half mesh, mesh options, mode selection and scale
         from .modes import SELECTIONS
         from .plate import plate_omega_scale
+        if model == "mindlin":
+            from .mindlin import DEGREES
+            from .mindlin import solve_mindlin as solve
+            own, extra = {"degree", "shear_factor"}, {}
+        else:
+            from .plate import solve_plate as solve
+            own, extra = set(), {"all_modes": all_modes}
         t0 = time.perf_counter()
-        if "kappa" in options:      # the mesher's option of that name, not the shear factor
+        if model == "mindlin" and "kappa" in options:   # the mesher's, not the shear factor
             raise BadInput("model 'mindlin': option 'kappa' is the plate mesher's, not the "
                            "shear factor; the shear factor is 'shear_factor' (default 5/6)")
-        unknown = set(options) - _MESH_OPTIONS - {"selection", "degree", "shear_factor"}
+        unknown = set(options) - _MESH_OPTIONS - {"selection"} - own
         if unknown:
-            raise BadInput(f"model 'mindlin': unknown option {sorted(unknown)[0]!r}")
+            raise BadInput(f"model {model!r}: unknown option {sorted(unknown)[0]!r}")
         if options.get("selection", "section") not in SELECTIONS:
             raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
                            f"got {options['selection']!r}")
-        degree = options.get("degree", 4)
-        if isinstance(degree, bool) or degree not in DEGREES:
-            raise BadInput(f"degree: must be one of {', '.join(map(str, DEGREES))}, "
-                           f"got {degree!r}")
-        kappa = options.get("shear_factor", 5.0 / 6.0)
-        if isinstance(kappa, bool) or not isinstance(kappa, (int, float, np.floating)) \
-                or not 0 < kappa <= 1:
-            raise BadInput(f"shear_factor: must be a number in (0, 1], got {kappa!r}")
+        if model == "mindlin":
+            degree = options.get("degree", 4)
+            if isinstance(degree, bool) or degree not in DEGREES:
+                raise BadInput(f"degree: must be one of {', '.join(map(str, DEGREES))}, "
+                               f"got {degree!r}")
+            kappa = options.get("shear_factor", 5.0 / 6.0)
+            if isinstance(kappa, bool) or not isinstance(kappa, (int, float, np.floating)) \
+                    or not 0 < kappa <= 1:
+                raise BadInput(f"shear_factor: must be a number in (0, 1], got {kappa!r}")
         try:
-            out = solve_mindlin(beam, modes, elements=elements, **options)
+            out = solve(beam, modes, elements=elements, **extra, **options)
         except (ValueError, ArithmeticError, RuntimeError) as exc:
-            raise BadInput(f"model 'mindlin': this planform cannot be solved reliably ({exc})") \
+            raise BadInput(f"model {model!r}: this planform cannot be solved reliably ({exc})") \
                 from None
-        # the plate's scale: lambda = (omega / omega_p)^2, now a function of t/L too
-        scale = plate_omega_scale(beam)
-        symmetric_entries = out["entries"]
-    else:
-        from .modes import SELECTIONS
-        from .plate import plate_omega_scale, solve_plate
-        t0 = time.perf_counter()
-        unknown = set(options) - _MESH_OPTIONS - {"selection"}
-        if unknown:
-            raise BadInput(f"model 'plate': unknown option {sorted(unknown)[0]!r}")
-        if options.get("selection", "section") not in SELECTIONS:
-            raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
-                           f"got {options['selection']!r}")
-        try:
-            out = solve_plate(beam, modes, all_modes=all_modes, elements=elements, **options)
-        except (ValueError, ArithmeticError, RuntimeError) as exc:
-            raise BadInput(f"model 'plate': this planform cannot be solved reliably ({exc})") \
-                from None
+        # lambda = (omega / omega_p)^2 for both (for mindlin a function of t/L too)
         scale = plate_omega_scale(beam)
         symmetric_entries = out["entries"]
     omega = check_frequencies(model, out["lam"], scale)
