@@ -486,7 +486,7 @@ RANDOM_DEFAULTS = dict(p=10, length=1.0, max_half_width=0.5, max_thickness=0.05,
 
 
 def random_beam(seed: int, index: int, p: int = 10, length: float = 1.0,
-                max_half_width: float = 0.5, max_thickness: float = 0.05,
+                max_half_width: float | tuple = 0.5, max_thickness: float = 0.05,
                 min_thickness: float = 0.01, min_half_width: float = 0.0,
                 material: Material | None = None) -> Beam:
     """The paper's random beam number ``index`` of the stream ``seed``: a pure function.
@@ -502,6 +502,13 @@ def random_beam(seed: int, index: int, p: int = 10, length: float = 1.0,
             raise BadInput(f"{name}: must be an integer >= 0, got {_show(v)}")
     if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 0:
         raise BadInput(f"p: must be an integer >= 0, got {_show(p)}")
+    width_range = np.ndim(max_half_width) == 1
+    if width_range:
+        lo, hi = (float(v) for v in max_half_width) if len(max_half_width) == 2 else (0.0, -1.0)
+        if not 0 < lo <= hi:
+            raise BadInput(f"max_half_width: a number or a pair 0 < lo <= hi, got "
+                           f"{_show(list(max_half_width))}")
+        max_half_width = lo
     if not 0 <= min_half_width < max_half_width:
         raise BadInput(f"min_half_width: must lie in [0, max_half_width = {max_half_width}), "
                        f"got {_show(min_half_width)}")
@@ -511,8 +518,11 @@ def random_beam(seed: int, index: int, p: int = 10, length: float = 1.0,
     rng = np.random.default_rng([int(seed), int(index)])
     interior = np.sort(1.0 - rng.random(p))
     x = length * np.concatenate([[0.0], interior, [1.0]])
-    w = np.maximum(max_half_width * (1.0 - rng.random(p + 2)), min_half_width)
+    u = 1.0 - rng.random(p + 2)
     t = max(max_thickness * (1.0 - rng.random()), min_thickness)
+    if width_range:
+        max_half_width = lo * (hi / lo) ** rng.random()
+    w = np.maximum(max_half_width * u, min_half_width)
     if np.any(np.diff(x) <= 0):  # probability ~1e-15: merge coincident stations
         keep = np.concatenate([[True], np.diff(x) > 0])
         x, w = x[keep], w[keep]

@@ -19,6 +19,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from prbdm import dataset as D
+from prbdm import random_beam
 from prbdm.cli import main
 from prbdm.errors import BadInput
 
@@ -62,6 +63,33 @@ def test_spec_defaults_and_validation():
     # a beam of the set is a pure function of (seed, index)
     a, b = D.beam_for(spec, 5), D.beam_for(D.make_spec(joints=3), 5)
     assert np.array_equal(a.x, b.x) and a.thickness == b.thickness
+
+
+def test_spec_width_range(tmp_path, capsys):
+    """--max-half-width LO,HI is part of the spec, gives the generator's range, is refused with
+    one line when malformed, and a set made with it cannot be resumed without it."""
+    spec = D.make_spec(joints=2, max_half_width=[0.025, 0.25], min_half_width=0.01)
+    assert spec["beam"]["max_half_width"] == [0.025, 0.25]
+    assert D.make_spec(joints=2, max_half_width=[0.3])["beam"]["max_half_width"] == 0.3
+    assert D.spec_difference(D.make_spec(joints=2), spec) == "beam.max_half_width"
+    b, ref = D.beam_for(spec, 3), random_beam(0, 3, max_half_width=(0.025, 0.25),
+                                              min_half_width=0.01)
+    assert np.array_equal(b.half_width, ref.half_width)
+    for bad in ([0.3, 0.1], [0.1, 0.2, 0.3], [-1.0], [float("nan")], [True]):
+        with pytest.raises(BadInput, match="--max-half-width"):
+            D.make_spec(joints=2, max_half_width=bad)
+    with pytest.raises(BadInput, match="--min-half-width.*0.02"):
+        D.make_spec(joints=2, max_half_width=[0.02, 0.2], min_half_width=0.05)
+    out = tmp_path / "narrow"
+    args = ["dataset", "generate", "--out", str(out), "--count", "3", "--joints", "2",
+            "--starts", "0", "--workers", "0", "--progress", "none"]
+    assert main(args + ["--max-half-width", "0.025,0.25"]) == 0
+    capsys.readouterr()
+    assert main(args + ["--count", "4"]) == 2                # resumed without the option
+    assert "beam.max_half_width" in capsys.readouterr().err
+    assert main(args + ["--max-half-width", "0.25,0.025"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--max-half-width" in err[0]
 
 
 # ---------------------------------------------------------------------- storage, resume, extend

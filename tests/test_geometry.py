@@ -251,6 +251,29 @@ def test_random_beam_ranges(p):
                         0.25, abs_tol=0.03)
 
 
+def test_random_beam_width_range():
+    """A (lo, hi) bound: one more draw after the thickness scales the same width fractions, so
+    stations, thickness and width ratios are the scalar generator's; the bound spreads
+    log-uniformly over [lo, hi]; the scalar generator is unchanged by the option's existence."""
+    bounds = []
+    for i in range(300):
+        a = random_beam(4, i)
+        b = random_beam(4, i, max_half_width=(0.025, 0.25))
+        assert np.array_equal(a.x, b.x) and a.thickness == b.thickness
+        scale = b.half_width / a.half_width * 0.5
+        assert np.allclose(scale, scale[0], rtol=1e-12) and 0.025 <= scale[0] <= 0.25
+        bounds.append(scale[0])
+    u = np.log(np.array(bounds) / 0.025) / np.log(10.0)      # uniform on [0, 1]
+    assert abs(np.mean(u) - 0.5) < 0.05 and np.mean(u < 0.25) == pytest.approx(0.25, abs=0.06)
+    c = random_beam(4, 7, max_half_width=(0.02, 0.2), min_half_width=0.01)
+    assert c.half_width.min() >= 0.01 and c.half_width.max() <= 0.2
+    for kwargs in (dict(max_half_width=(0.3, 0.1)), dict(max_half_width=(0.0, 0.1)),
+                   dict(max_half_width=(0.1, 0.2, 0.3)),
+                   dict(max_half_width=(0.02, 0.2), min_half_width=0.03)):
+        with pytest.raises(BadInput, match="half_width"):
+            random_beam(0, 0, **kwargs)
+
+
 def test_random_beam_parameters():
     b = random_beam(1, 1, p=4, length=2.0, min_half_width=0.1, max_half_width=0.3,
                     min_thickness=0.02, max_thickness=0.04)

@@ -111,6 +111,30 @@ def test_truth_only_data_refuses_label_modes_before_writing(tmp_path, tiny_data)
     assert listing(tmp_path) == {}
 
 
+def test_two_data_sets_must_agree_and_train_together(tmp_path, tiny_data):
+    """--data A,B: sets that differ in their labels' definition are refused (one line, nothing
+    written); sets that differ only in their random beams train one network whose metadata
+    records each set and a hash of both."""
+    other = tmp_path / "joints3"
+    D.generate(other, 12, D.make_spec(joints=3, starts=0, seed=6), workers=0, progress="none")
+    run = script("train_surrogate.py", "--data", f"{tiny_data},{other}", "--out",
+                 tmp_path / "a.safetensors", cwd=tmp_path)
+    _one_line_exit_2(run, "--data", "joints")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["joints3"]
+    narrow = tmp_path / "narrow"
+    D.generate(narrow, 12, D.make_spec(joints=2, starts=0, seed=6, max_half_width=[0.05, 0.2]),
+               workers=0, progress="none")
+    out = tmp_path / "two.safetensors"
+    run = script("train_surrogate.py", "--data", f"{tiny_data},{narrow}", "--out", out,
+                 "--device", "cpu", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    meta = sg.load_checkpoint(out).metadata["dataset"]
+    assert meta["size"] == 32 and [s["size"] for s in meta["sets"]] == [20, 12]
+    assert meta["sets"][1]["spec"]["beam"]["max_half_width"] == [0.05, 0.2]
+    one = sg.dataset_hash(D.read_table(tiny_data, status="ok").to_pandas())
+    assert meta["sets"][0]["sha256"] == one != meta["sha256"]
+
+
 def test_evaluate_and_pack_bad_input(tmp_path):
     _one_line_exit_2(script("evaluate_surrogate.py", "--split", "all", cwd=tmp_path), "--split")
     _one_line_exit_2(script("evaluate_surrogate.py", "--checkpoint", "no.safetensors",

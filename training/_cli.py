@@ -156,7 +156,9 @@ def parse(prog: str, description: str, settings: dict, argv=None, positional=(),
 
 def portable_path(path) -> str:
     """``path`` as it is best recorded in committed metadata: relative to the repository when
-    it lies inside it (no machine paths), else as given."""
+    it lies inside it (no machine paths), else as given; several, comma-separated, each so."""
+    if "," in str(path):
+        return ",".join(portable_path(part) for part in str(path).split(","))
     p = Path(path)
     try:
         return p.resolve().relative_to(REPO).as_posix()

@@ -53,7 +53,8 @@ from _cli import Setting
 PROG = "train_surrogate"
 S = Setting
 SETTINGS = {
-    "data": S("", "data set folder (prbdm dataset generate)"),
+    "data": S("", "data set folder (prbdm dataset generate); several, comma-separated, train "
+                  "one network when they differ only in their random beams"),
     "out": S("", "checkpoint to write (.safetensors; a .json copy of its metadata and a .log "
                  "beside it)"),
     "objective": S("eigenvalue", "what the physics loss and the selection measure: the paper's "
@@ -132,9 +133,13 @@ if out_path.suffix != ".safetensors":
     _fail(f"--out: must end in .safetensors, got {out!r}")
 if out_path.is_dir():
     _fail(f"--out: {out!r} is a folder; give the checkpoint's file name")
-if not Path(data, "_manifest.json").is_file():
-    _fail(f"--data: {data!r} is not a data set folder (no _manifest.json); make one with "
-          f"`prbdm dataset generate`")
+data_sets = [d.strip() for d in data.split(",") if d.strip()]
+for _d in data_sets:
+    if not Path(_d, "_manifest.json").is_file():
+        _fail(f"--data: {_d!r} is not a data set folder (no _manifest.json); make one with "
+              f"`prbdm dataset generate`")
+if not data_sets or len(set(data_sets)) != len(data_sets):
+    _fail(f"--data: one or more distinct data set folders, comma-separated, got {data!r}")
 
 import torch  # noqa: E402  (after the configuration, as in nanoGPT)
 
@@ -156,20 +161,46 @@ except (RuntimeError, AssertionError) as exc:     # unknown name, or no such dev
 torch.set_num_threads(threads)
 
 # ------------------------------------------------------------------------------- 1. data
-try:
-    manifest = ds.read_manifest(data)
-    spec = manifest["spec"]
-    columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
-               "loss_percent", "fit_time_s", "gamma_spread"]
-    table = ds.read_table(data, columns=columns, status="ok").to_pandas()
-except (BadInput, OSError, KeyError, ValueError) as exc:
-    _fail(f"--data: cannot read the data set {data!r} ({str(exc).splitlines()[0]})")
-if spec["law"] != "beam":
-    _fail(f"--data: the surrogate supports the 'beam' law only, data set has {spec['law']!r}")
-records_read = len(table)
+# several sets (``--data A,B``) train one network when they agree on everything that defines
+# the labels (truth, joints, modes, law, poses, fit, material) and differ only in their random
+# beams (seed, generator bounds): e.g. the paper's wide panels and a narrower range
+SAME_FIELDS = ("truth", "truth_modes", "joints", "modes", "law", "poses", "starts", "objective")
+columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
+           "loss_percent", "fit_time_s", "gamma_spread"]
+sets, tables = [], []
+for _d in data_sets:
+    try:
+        _manifest = ds.read_manifest(_d)
+        _spec = _manifest["spec"]
+        _t = ds.read_table(_d, columns=columns, status="ok").to_pandas()
+    except (BadInput, OSError, KeyError, ValueError) as exc:
+        _fail(f"--data: cannot read the data set {_d!r} ({str(exc).splitlines()[0]})")
+    if _spec["law"] != "beam":
+        _fail(f"--data: the surrogate supports the 'beam' law only, {_d} has {_spec['law']!r}")
+    if sets:
+        _first = sets[0]["spec"]
+        for _f in SAME_FIELDS + ("beam.material",):
+            _a, _b = _first, _spec
+            for _k in _f.split("."):
+                _a, _b = _a.get(_k, "eigenvalue" if _k == "objective" else None), \
+                    _b.get(_k, "eigenvalue" if _k == "objective" else None)
+            if _a != _b:
+                _fail(f"--data: {_d} differs from {data_sets[0]} in {_f} ({_b!r} vs {_a!r}); "
+                      f"sets trained together must agree on {', '.join(SAME_FIELDS)}, material")
+    _read = len(_t)
+    _top = int(_t["index"].max()) if (max_index < 0 and _read) else max_index
+    _t = _t[_t["index"] <= _top].reset_index(drop=True)
+    sets.append({"path": _cli.portable_path(_d), "spec": _spec, "size": len(_t),
+                 "records_ok_read": _read, "max_index": _top,
+                 "manifest_count": _manifest.get("count"), "sha256": sg.dataset_hash(_t),
+                 "dataset_git_commit": _manifest.get("git_commit")})
+    tables.append(_t)
+import pandas as pd  # noqa: E402
+manifest, spec = ds.read_manifest(data_sets[0]), sets[0]["spec"]
+table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
+records_read = sum(s_["records_ok_read"] for s_ in sets)
 if max_index < 0:
-    max_index = int(table["index"].max()) if records_read else -1
-table = table[table["index"] <= max_index].reset_index(drop=True)
+    max_index = sets[0]["max_index"]
 N = len(table)
 if N < 10:
     _fail(f"--data: need at least 10 ok records, found {N} in {data!r}")
@@ -241,7 +272,12 @@ else:
     y_gamma = np.broadcast_to(sg.uniform_gamma(n), (N, n + 1)).copy()
     y_logk = np.zeros((N, m))
 y_corr = log_omega_hat - feats[:, base]
-sha = sg.dataset_hash(table)
+# one set: the hash of its records (as before); several: of their hashes, in the given order
+sha = (sets[0]["sha256"] if len(sets) == 1 else
+       __import__("hashlib").sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
+for s_ in sets[1:] if len(sets) > 1 else []:
+    log(f"  with {s_['path']}: {s_['size']} records (index <= {s_['max_index']}), "
+        f"generator {json.dumps(s_['spec']['beam']['max_half_width'])} m, seed {s_['spec']['seed']}")
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index}; n = {n}, "
     f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; "
     f"{'fitted labels' if labelled else 'truth only (no fitted labels)'}; sha256 {sha[:16]}")
@@ -526,7 +562,9 @@ meta = {
                              "(prbdm.surrogate.dataset_hash)",
                 "dataset_git_commit": manifest.get("git_commit"),
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
-                          **{k: int(len(v)) for k, v in split.items()}}},
+                          **{k: int(len(v)) for k, v in split.items()}},
+                **({"sets": sets, "sha256_of_sets": "sha256 of the sets' sha256 (hex) joined "
+                    "in order"} if len(sets) > 1 else {})},
     "training": {"config": recorded_config,
                  "seeds": {"torch": seed, "numpy": seed, "batch_order": seed,
                            "members": [seed + j for j in range(members)]},

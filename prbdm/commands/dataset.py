@@ -48,6 +48,10 @@ def add_arguments(parser):
                    help="interior planform stations of the random beams (default 10)")
     g.add_argument("--min-half-width", type=float, metavar="M",
                    help="lower bound on the random half-widths [m] (default 0)")
+    g.add_argument("--max-half-width", metavar="W|LO,HI",
+                   help="upper bound on the random half-widths [m] (default 0.5, the paper's); "
+                   "LO,HI: each beam's bound drawn log-uniformly in [LO, HI] (narrow and wide "
+                   "panels in one set)")
     g.add_argument("--workers", type=positive_int(0), metavar="W",
                    help="worker processes (default: usable cores; 0 = in this process)")
     g.add_argument("--scheduler", metavar="ADDRESS",
@@ -90,6 +94,9 @@ def _generate(args) -> int:
     spec = dataset.make_spec(joints=args.joints, modes=args.modes, truth=args.truth,
                              law=args.law, poses=poses, starts=args.starts, seed=args.seed,
                              p=args.stations, min_half_width=args.min_half_width,
+                             max_half_width=(None if args.max_half_width is None else
+                                             float_list(args.max_half_width, "--max-half-width",
+                                                        positive=True)),
                              fit_batch=args.fit_batch, objective=args.objective)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:

@@ -37,6 +37,7 @@ FLUSH_S = 60.0
 FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "--truth",
          "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
          "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
+         "beam.max_half_width": "--max-half-width",
          "fit_batch": "--fit-batch", "objective": "--objective"}
 
 
@@ -44,7 +45,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
               poses="paper", starts: int | None = None, seed: int = 0, p: int | None = None,
               min_half_width: float | None = None, truth_modes: int | None = None,
               material: Material | None = None, fit_batch: int | None = None,
-              objective: str | None = None) -> dict:
+              objective: str | None = None, max_half_width=None) -> dict:
     """The JSON-able description of a data set: everything that decides a record.
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
@@ -52,7 +53,9 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
     ``"linear"`` or a list of joint angles [rad]. ``starts=None`` means :data:`DEFAULT_STARTS`;
     ``starts=0`` makes a *truth-only* set: geometry and truth frequencies, no fit (the fit columns
     are null). That is all the surrogate's physics training needs, at about 1/100 of the cost.
-    ``fit_batch``: beams per batched fit; ``objective``: what the fit minimises (one of
+    ``max_half_width``: the generator's bound on the half-widths [m], a number (the paper's 0.5 L
+    when None) or a pair (lo, hi): each beam's bound drawn log-uniformly between them
+    (:func:`prbdm.geometry.random_beam`). ``fit_batch``: beams per batched fit; ``objective``: what the fit minimises (one of
     :data:`OBJECTIVES`). For both, None (the key is then absent) means the folder's value for an
     existing set (1 and ``eigenvalue`` if it has none) and :data:`DEFAULT_FIT_BATCH` and
     :data:`DEFAULT_OBJECTIVE` for a new one.
@@ -83,11 +86,21 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
     gen = dict(RANDOM_DEFAULTS)
     if p is not None:
         gen["p"] = integer("beam.p", p, 0)
+    if max_half_width is not None:
+        bounds = [max_half_width] if np.ndim(max_half_width) == 0 else list(max_half_width)
+        if not (1 <= len(bounds) <= 2 and
+                all(isinstance(v, (int, float)) and not isinstance(v, bool) and
+                    math.isfinite(v) and v > 0 for v in bounds) and bounds[0] <= bounds[-1]):
+            raise BadInput(f"--max-half-width: a length > 0 [m], or two (lo,hi) with "
+                           f"0 < lo <= hi, got {max_half_width!r}")
+        gen["max_half_width"] = (float(bounds[0]) if len(bounds) == 1
+                                 else [float(v) for v in bounds])
+    lowest = np.min(gen["max_half_width"])
     if min_half_width is not None:
         if not (isinstance(min_half_width, (int, float)) and
-                0 <= min_half_width < gen["max_half_width"]):
-            raise BadInput(f"--min-half-width: must lie in [0, {gen['max_half_width']}) m, "
-                           f"got {min_half_width!r}")
+                0 <= min_half_width < lowest):
+            raise BadInput(f"--min-half-width: must lie in [0, {lowest}) m (below the "
+                           f"smallest --max-half-width), got {min_half_width!r}")
         gen["min_half_width"] = float(min_half_width)
     gen["material"] = (material or Material()).to_dict()
     spec = {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
