@@ -235,6 +235,19 @@ def test_auto_does_not_give_a_panel_to_an_extrapolating_plate_network(capsys, be
     assert rc == 0 and json.loads(out)["truth"] == "plate" and "outside the training range" in err
 
 
+def test_auto_gives_a_bar_too_thick_for_the_plate_to_the_beam(capsys, beam_file):
+    """0.08 L wide, 45 mm thick: past thin-plate theory (t > 0.5 b). `--truth auto` once chose
+    the plate and refused the panel (exit 2) in predict, fit and compare; now the beam, and why."""
+    bar = beam_file({"x": [0, 1], "half_width": [0.04, 0.03], "thickness": 0.045})
+    rc, out, err = run(capsys, "predict", bar, "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"] == "beam" and "not a thin plate" in o["truth_reason"]
+    rc, out, err = run(capsys, "fit", bar, "--joints", 4, "--starts", 4, "--json")
+    assert rc == 0 and json.loads(out)["truth"]["model"] == "beam"
+    assert_bad(*run(capsys, "predict", bar, "--joints", 4, "--truth", "plate"),
+               "thickness", "0.5 x the full width")
+
+
 def test_a_beam_on_standard_input_is_read_once_for_truth_auto():
     """`--truth auto` looks at the panel's width before the beam is read for good: with BEAM `-`
     standard input must still be there for the second read (predict and compare)."""

@@ -42,3 +42,14 @@ def test_live_differences_agree_with_the_choice():
     b = bending_frequencies(wide, "beam", 4).omega
     p = bending_frequencies(wide, "plate", 4).omega
     assert np.abs(b / p - 1).max() > AUTO_TOLERANCE
+
+
+def test_a_panel_the_plate_cannot_take_is_a_beam_with_the_reason():
+    """Wider than 0.05 L but thicker than half its width (thin-plate theory fails; a bar): `auto`
+    once chose the plate and then refused the panel (exit 2) that `--truth beam` solves."""
+    bar = Beam(x=[0, 1], half_width=[0.04, 0.03], thickness=0.045)
+    truth, why = choose_truth(bar)
+    assert truth == "beam" and "thin plate" in why and "0.5 x the full width" in why
+    # a panel neither truth accepts keeps the plate (whose refusal names the limit)
+    wide_thick = Beam(x=[0, 1], half_width=[0.2, 0.2], thickness=0.25)
+    assert choose_truth(wide_thick)[0] == "plate"

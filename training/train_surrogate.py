@@ -87,6 +87,9 @@ SETTINGS = {
     "max_minutes": S(9.0, "wall-clock limit per mode [min]"),
     "phys_weight": S(1.0, "combined mode: label + phys_weight * physics [%]"),
     "freq_weight": S(1.0, "weight of the frequency head's label term"),
+    "freq_loss": S("mse", "the frequency head's label term: mse (its mean) or l1 (its median: "
+                          "where the kept mode switches with the shape the label is two-valued, "
+                          "and the mean of the two is wrong for both)", ("mse", "l1")),
     "vp_weight": S(1.0, "physics: + vp_weight * the objective of the predicted gamma with its "
                         "best SCFs (variable projection on the truth, as the fit)"),
     "loss_power": S(1.0, "physics: each beam's loss L [%] enters as L**p / p (p = 0: log L, "
@@ -366,7 +369,8 @@ def label_terms(rows, d):
     ga = d["gamma_all"]
     lg = wta((((ga - Yg[rows][:, None]) / norm["gamma_std"]) ** 2).mean(-1)).mean()
     lk = (((d["logk"].float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
-    lc = (((d["corr"] - Yc[rows]) / norm["freq_std"]) ** 2).mean()
+    dc = (d["corr"] - Yc[rows]) / norm["freq_std"]
+    lc = (dc ** 2).mean() if freq_loss == "mse" else dc.abs().mean()
     return lg, lk, lc
 
 

@@ -37,6 +37,20 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
         return "beam", (f"auto: full width {b:.3g} L <= {AUTO_BEAM_MAX_WIDTH:g} L, a slender strip: "
                         f"the beam is within {AUTO_TOLERANCE:.0%} of the plate on modes 1-4 for "
                         "95 % of measured panels this narrow (docs/truth.md)")
+    from ..errors import BadInput
+    from ..geometry import check_beam
+
+    try:
+        check_beam(beam, "plate")
+    except BadInput as exc:
+        # a panel the plate cannot take (thicker than half its width, or a width that varies too
+        # much for its mesh) that the beam can: the beam, and why; else the plate's refusal stands
+        try:
+            check_beam(beam, "beam")
+        except BadInput:
+            return "plate", f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L"
+        return "beam", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L, but not a thin "
+                        f"plate ({exc}): solved as a beam")
     return "plate", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would "
                      f"differ from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 "
                      "or more this wide (docs/truth.md)")
