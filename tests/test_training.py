@@ -183,22 +183,23 @@ def test_config_bad_values_exit_2(tmp_path, capsys, text, word):
     assert len(err.strip().splitlines()) == 1 and word in err
 
 
-@pytest.mark.parametrize("n", ["3", "4", "5", "4-frequency"])
-def test_shipped_recipes_are_the_checkpoints_own(n, tmp_path):
-    """training/configs/beam-nN[-frequency].toml holds what the shipped checkpoint's metadata records
+@pytest.mark.parametrize("name", ["beam-n3", "beam-n4", "beam-n5", "beam-n4-frequency",
+                                  "plate-n4"])
+def test_shipped_recipes_are_the_checkpoints_own(name, tmp_path):
+    """training/configs/NAME.toml holds what the shipped checkpoint's metadata records
     (every setting it records), has no --out (a rerun never overwrites it), and the training
     script accepts it (it gets as far as looking for the data set)."""
     import tomllib
 
-    config = tomllib.loads((TRAINING / "configs" / f"beam-n{n}.toml").read_text())
-    meta = json.loads((REPO / "checkpoints" / f"beam-n{n}.json").read_text())
+    config = tomllib.loads((TRAINING / "configs" / f"{name}.toml").read_text())
+    meta = json.loads((REPO / "checkpoints" / f"{name}.json").read_text())
     recorded = meta["training"]["config"]
     assert "out" not in config
     assert config["data"] == meta["dataset"]["path"]
     for key, value in recorded.items():
         if key not in ("data", "out", "config", "device"):    # where it ran, not the recipe
             assert config[key] == value, key
-    run = script("train_surrogate.py", "--config", TRAINING / "configs" / f"beam-n{n}.toml",
+    run = script("train_surrogate.py", "--config", TRAINING / "configs" / f"{name}.toml",
                  "--out", tmp_path / "x.safetensors", "--data", tmp_path / "none", cwd=tmp_path)
     _one_line_exit_2(run, "--data", "_manifest.json")
 
