@@ -26,3 +26,10 @@ REFINE_ITER = 15
 #: beam networks are a decade inside both (docs/surrogate.md); a plate network may not be.
 ACCURACY_WARN_LOSS_PERCENT = 2.0
 ACCURACY_WARN_FREQ_PERCENT = 1.0
+
+#: `--truth auto` gives a panel to the plate network only when it is wider than this (full width
+#: over length): below it the beam network was measured closer to the plate truth than the plate
+#: network (`python benchmarks/plate_width_bands.py --data datasets/plate-n4-narrow-seed3
+#: --checkpoints checkpoints/plate-n4.safetensors,checkpoints/beam-n4.safetensors`,
+#: docs/surrogate.md); between 0.05 L and this the plate is the truth, the beam network the answer
+PLATE_NETWORK_MIN_WIDTH = 0.1

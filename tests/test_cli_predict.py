@@ -222,17 +222,38 @@ def test_compare_takes_the_truth_auto_chooses(capsys, beam_file):
 @pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
                     reason="no shipped plate network")
 def test_auto_does_not_give_a_panel_to_an_extrapolating_plate_network(capsys, beam_file):
-    """The README's tapered panel is 0.36 L wide, narrower than any panel plate-n4 saw (0.4-1 L):
-    `--truth auto` gives it to the beam network (measured closer to the plate there, see
-    answer_or_fall_back) and says why; `--truth plate` still answers, with the range warning."""
-    panel = beam_file({"x": [0.0, 0.35, 1.0], "half_width": [0.18, 0.12, 0.05],
-                       "thickness": 0.03})
+    """A panel 1.4 L wide is wider than any panel plate-n4 saw (0.035-1 L): `--truth auto` gives
+    it to the beam network and says why (an extrapolating plate network was measured worse than
+    the beam network: answer_or_fall_back); `--truth plate` still answers, with the range
+    warning."""
+    panel = beam_file({"x": [0.0, 0.5, 1.0], "half_width": [0.7, 0.6, 0.5], "thickness": 0.02})
     rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--json")
     o = json.loads(out)
     assert rc == 0 and o["checkpoint"]["name"] == "beam-n4.safetensors"
     assert "log_aspect" in err and "it would extrapolate" in err
     rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--truth", "plate", "--json")
     assert rc == 0 and json.loads(out)["truth"] == "plate" and "outside the training range" in err
+
+
+def test_auto_gives_a_narrow_plate_panel_to_the_beam_network_without_a_warning(capsys,
+                                                                               beam_file):
+    """0.08 L wide: the plate is the truth (wider than 0.05 L), but up to
+    PLATE_NETWORK_MIN_WIDTH the beam network was measured closer to the plate than the plate
+    network: predict answers with it and says why, with no warning; compare measures that answer
+    against the plate, with no warning either."""
+    from prbdm.constants import PLATE_NETWORK_MIN_WIDTH
+
+    assert 0.08 < PLATE_NETWORK_MIN_WIDTH
+    panel = beam_file({"x": [0, 0.5, 1], "half_width": [0.04, 0.03, 0.02], "thickness": 0.01})
+    rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["checkpoint"]["name"] == "beam-n4.safetensors" and o["truth"] == "beam"
+    assert "measured closer to the plate" in o["truth_reason"]
+    assert o["warnings"] == [] and err == ""
+    rc, out, err = run(capsys, "compare", panel, "--joints", 4, "--starts", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"]["model"] == "plate" and o["checkpoint"]["truth"] == "beam"
+    assert o["warnings"] == []
 
 
 def test_auto_gives_a_bar_too_thick_for_the_plate_to_the_beam(capsys, beam_file):

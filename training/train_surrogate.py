@@ -61,6 +61,8 @@ SETTINGS = {
                                  "eigenvalue loss or the frequency objective (prbdm.objectives)",
                    ("eigenvalue", "frequency")),
     "device": S("auto", "torch device for training (auto: cuda when available, else cpu)"),
+    "joints": S(0, "PRBDM joints n (0: the data set's; another n only from a truth-only set "
+                   "that holds n + 1 truth modes)"),
     "modes": S("label,physics,combined", "training modes to compare, comma-separated"),
     "seed": S(0, "torch seed of every mode (weights init and batch order)"),
     "max_index": S(-1, "use records with index <= max_index (-1: all present)"),
@@ -119,7 +121,7 @@ def _fail(message):
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
-for _name, _lo in (("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
+for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
                    ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
                    ("cells", 1), ("rfe_segments", 2), ("threads", 1)):
     if globals()[_name] < _lo:
@@ -207,7 +209,16 @@ if max_index < 0:
 N = len(table)
 if N < 10:
     _fail(f"--data: need at least 10 ok records, found {N} in {data!r}")
-n = spec["joints"]
+# a truth-only set's records do not depend on the joints (no fit): it trains any n whose r
+# modes and n + 1 truth modes it holds; a labelled set only its own
+n = joints or spec["joints"]
+if joints and joints != spec["joints"]:
+    if spec["starts"] > 0:
+        _fail(f"--joints: {data} holds fits for n = {spec['joints']}; another n needs a "
+              f"truth-only set (--starts 0), got {joints}")
+    if spec["truth_modes"] < joints + 1:
+        _fail(f"--joints: {data} holds {spec['truth_modes']} truth modes; n = {joints} needs "
+              f"n + 1 = {joints + 1}")
 r = min(n, spec["modes"])
 # a truth-only set (``prbdm dataset generate --starts 0``) has no fitted labels: only the physics
 # mode can train on it (it needs the truth frequencies alone); the label normalisation is then the

@@ -74,7 +74,7 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    from .predict import answer_or_fall_back, auto_choice, network_truth
+    from .predict import NARROW_PLATE, answer_or_fall_back, auto_choice, network_truth
 
     # `--truth auto` (the default): the truth the panel needs, and that truth's network when one
     # is found and can answer this panel; otherwise the beam network, measured against it
@@ -103,12 +103,12 @@ def run(args) -> int:
     notes = []
     sur, (pred, t_net), declined = answer_or_fall_back(args, sur, chosen, network_prediction,
                                                        beam)
-    if declined:
+    if declined and declined != NARROW_PLATE:
         notes.append(f"{declined}; the beam network is measured instead")
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
     notes += [w for w in (sur.accuracy_warning(),) if w]
-    if sur.truth != model:
+    if sur.truth != model and declined != NARROW_PLATE:     # narrow: the better network, chosen
         notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
                      f"truth this panel needs (`--truth auto`: {reason})")
 

@@ -211,6 +211,12 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
+    if declined == NARROW_PLATE:
+        from ..constants import PLATE_NETWORK_MIN_WIDTH
+
+        return (f"{why}; checkpoint {sur.name}: on panels up to {PLATE_NETWORK_MIN_WIDTH:g} L "
+                f"wide the beam network was measured closer to the plate than the plate network "
+                f"(docs/surrogate.md)"), None
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {model} network is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
@@ -221,15 +227,31 @@ def truth_reason(beam, sur, asked, choice, declined=None,
             f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
 
+#: ``declined`` when `--truth auto` gives a plate panel narrower than PLATE_NETWORK_MIN_WIDTH to
+#: the beam network on purpose (measured closer to the plate there): a reason, not a warning
+NARROW_PLATE = "narrow plate"
+
+
 def answer_or_fall_back(args, sur, chosen, answer, beam):
     """(network, answer(network), declined): the answer of the network `--truth auto` chose
     (``chosen``, from :func:`network_truth`); when this panel lies outside that network's
     training range, or the network refuses it (BadInput: a feature it never saw vary, such as
     nu, or an implausible answer), the beam network's answer instead, with ``declined`` saying
-    why: an extrapolating plate network was measured worse than the beam network (the README's
-    0.36 L panel: modes 1-4 2.0 / 1.3 / 2.4 / 13 % from the plate against 0.8 / 0.9 / 1.1 / 1.3 %;
-    `plate-n4` saw full widths of 0.4-1 L only). A network that was asked for (``--truth``,
-    ``--checkpoint``) or the beam network itself: its answer or refusal stands."""
+    why: an extrapolating plate network was measured worse than the beam network (the plate-n4
+    trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of datasets/plate-n4-narrow-seed3:
+    loss 5.9 % against beam-n4's 0.41 %). A plate panel no wider than PLATE_NETWORK_MIN_WIDTH
+    goes to the beam network on purpose (``declined`` = NARROW_PLATE): measured closer to the
+    plate there (docs/surrogate.md). A network that was asked for (``--truth``, ``--checkpoint``)
+    or the beam network itself: its answer or refusal stands."""
+    from ..constants import PLATE_NETWORK_MIN_WIDTH
+    from ..geometry import check_beam
+    from ..truth.choice import width_ratio
+
+    if chosen == "plate" and width_ratio(beam) <= PLATE_NETWORK_MIN_WIDTH:
+        # the plate is this panel's truth, but the beam network was measured closer to it
+        beam_net = load_surrogate(args, "beam")
+        check_beam(beam, beam_net.truth)
+        return beam_net, answer(beam_net), NARROW_PLATE
     try:
         if chosen is not None:
             bad, texts = sur.check_range(sur.features([beam]))
@@ -240,8 +262,6 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     except BadInput as exc:
         if chosen is None:
             raise
-        from ..geometry import check_beam
-
         beam_net = load_surrogate(args, "beam")
         check_beam(beam, beam_net.truth)     # the beam was read (and warned about) once already
         return beam_net, answer(beam_net), f"{sur.name} cannot answer this panel ({exc})"
