@@ -5,7 +5,7 @@
 
 For each held-out panel of a plate data set with fits (``prbdm dataset generate --truth plate``,
 ``--starts`` > 0), each network's PRBDM is measured against the stored plate truth (the paper's
-loss over the data set's poses, docs/conventions.md §3) beside the optimised fit's, and its
+loss over the network's poses, which the data set's fits share, docs/conventions.md §3) beside the optimised fit's, and its
 direct prediction of the plate frequencies (error per mode); medians per width band. This is
 what decides which network ``--truth auto`` should give a panel of a given width. No FEM runs:
 the truth is the stored one. Runs in seconds.
@@ -19,6 +19,8 @@ import warnings
 
 import numpy as np
 
+#: band edges of the full width 2 max(w) / L; a panel up to 0.05 L (AUTO_BEAM_MAX_WIDTH) is a
+#: beam for --truth auto and not listed
 BANDS = (0.05, 0.1, 0.2, 0.4, 0.7, 1.01)
 
 
@@ -44,9 +46,12 @@ def main(argv=None) -> int:
     r = spec["modes"]
     omega = np.stack(t["omega_truth"].to_numpy())[:, :r]
     width = np.array([2 * max(w) for w in t["half_width"]]) / t["length"].to_numpy()
-    rows = {"fit (64 starts)": {"loss": t["loss_percent"].to_numpy()}}
+    rows = {f"fit ({spec['starts']} starts)": {"loss": t["loss_percent"].to_numpy()}}
     for path in args.checkpoints.split(","):
         sur = sg.load_checkpoint(path)
+        if (sur.joints, sur.modes) != (spec["joints"], r):
+            sys.exit(f"plate_width_bands: --checkpoints: {sur.name} is n = {sur.joints}, "
+                     f"r = {sur.modes}; the data set's fits are n = {spec['joints']}, r = {r}")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             pred = sur.predict(batch, frequencies=True, warn=False)
@@ -54,7 +59,9 @@ def main(argv=None) -> int:
         direct = np.abs(pred.omega_truth[:, :r] / omega - 1) * 100
         rows[sur.name] = {"loss": loss, "direct": direct}
     out = {"data": args.data, "panels": len(t), "bands": []}
-    print(f"{len(t)} held-out panels of {args.data}, against the plate truth; medians")
+    listed = (width > BANDS[0]) & (width <= BANDS[-1])
+    print(f"{len(t)} held-out panels of {args.data} ({listed.sum()} wider than {BANDS[0]} L), "
+          "against the plate truth; each network's PRBDM over its own poses; medians")
     for lo, hi in zip(BANDS[:-1], BANDS[1:]):
         s = (width > lo) & (width <= hi)
         if not s.any():

@@ -253,7 +253,10 @@ def test_auto_gives_a_narrow_plate_panel_to_the_beam_network_without_a_warning(c
     rc, out, err = run(capsys, "compare", panel, "--joints", 4, "--starts", 4, "--json")
     o = json.loads(out)
     assert rc == 0 and o["truth"]["model"] == "plate" and o["checkpoint"]["truth"] == "beam"
-    assert o["warnings"] == []
+    assert o["warnings"] == [] and "measured closer to the plate" in o["truth"]["reason"]
+    # asked for, the plate network answers this panel (with its own range or rough warnings)
+    rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--truth", "plate", "--json")
+    assert rc == 0 and json.loads(out)["checkpoint"]["name"] == "plate-n4.safetensors"
 
 
 def test_auto_gives_a_bar_too_thick_for_the_plate_to_the_beam(capsys, beam_file):
@@ -262,7 +265,7 @@ def test_auto_gives_a_bar_too_thick_for_the_plate_to_the_beam(capsys, beam_file)
     bar = beam_file({"x": [0, 1], "half_width": [0.04, 0.03], "thickness": 0.045})
     rc, out, err = run(capsys, "predict", bar, "--joints", 4, "--json")
     o = json.loads(out)
-    assert rc == 0 and o["truth"] == "beam" and "not a thin plate" in o["truth_reason"]
+    assert rc == 0 and o["truth"] == "beam" and "thin-plate theory" in o["truth_reason"]
     rc, out, err = run(capsys, "fit", bar, "--joints", 4, "--starts", 4, "--json")
     assert rc == 0 and json.loads(out)["truth"]["model"] == "beam"
     assert_bad(*run(capsys, "predict", bar, "--joints", 4, "--truth", "plate"),

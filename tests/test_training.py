@@ -119,8 +119,11 @@ def test_two_data_sets_must_agree_and_train_together(tmp_path, tiny_data):
     D.generate(other, 12, D.make_spec(joints=3, starts=0, seed=6), workers=0, progress="none")
     run = script("train_surrogate.py", "--data", f"{tiny_data},{other}", "--out",
                  tmp_path / "a.safetensors", cwd=tmp_path)
-    _one_line_exit_2(run, "--data", "joints")
+    _one_line_exit_2(run, "--data", "in truth_modes (4 vs 3)")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["joints3"]
+    run = script("train_surrogate.py", "--data", f"{tiny_data},{tiny_data}/../{tiny_data.name}",
+                 "--out", tmp_path / "a.safetensors", cwd=tmp_path)
+    _one_line_exit_2(run, "--data", "distinct")
     narrow = tmp_path / "narrow"
     D.generate(narrow, 12, D.make_spec(joints=2, starts=0, seed=6, max_half_width=[0.05, 0.2]),
                workers=0, progress="none")
@@ -133,6 +136,39 @@ def test_two_data_sets_must_agree_and_train_together(tmp_path, tiny_data):
     assert meta["sets"][1]["spec"]["beam"]["max_half_width"] == [0.05, 0.2]
     one = sg.dataset_hash(D.read_table(tiny_data, status="ok").to_pandas())
     assert meta["sets"][0]["sha256"] == one != meta["sha256"]
+
+
+def test_joints_override_and_freq_loss(tmp_path, tiny_data):
+    """--joints trains another n from a truth-only set that holds n + 1 truth modes (its records
+    do not depend on n), refused with one line otherwise; --freq_loss l1 trains and is recorded;
+    a set with no record in range is one line, not a traceback."""
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "a.safetensors",
+                 "--joints", 3, cwd=tmp_path)
+    _one_line_exit_2(run, "--joints", "3 truth modes", "n + 1 = 4")
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "a.safetensors",
+                 "--max_index", 0, "--modes", "physics", cwd=tmp_path)
+    assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr[-2000:]
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "a.safetensors",
+                 "--max_index", 100000, "--modes", "physics", cwd=tmp_path)  # fine: all 20
+    five = tmp_path / "truth5"
+    D.generate(five, 20, D.make_spec(joints=2, starts=0, seed=5, truth_modes=5), workers=0,
+               progress="none")
+    out = tmp_path / "n3.safetensors"
+    run = script("train_surrogate.py", "--data", five, "--out", out, "--joints", 3,
+                 "--freq_loss", "l1", "--device", "cpu", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    sur = sg.load_checkpoint(out)
+    assert sur.joints == 3 and sur.modes == 3
+    assert sur.metadata["training"]["config"]["freq_loss"] == "l1"
+    pred = sur.predict(sg.BeamBatch.from_beams([D.beam_for(D.make_spec(joints=2), 1)]),
+                       warn=False)
+    assert pred.gamma.shape[-1] == 4 and np.isfinite(pred.omega).all()
+    labelled = tmp_path / "labelled"
+    D.generate(labelled, 2, D.make_spec(joints=2, starts=2, seed=5, truth_modes=5), workers=0,
+               progress="none")
+    run = script("train_surrogate.py", "--data", labelled, "--out", tmp_path / "b.safetensors",
+                 "--joints", 3, cwd=tmp_path)
+    _one_line_exit_2(run, "--joints", "holds fits for n = 2")
 
 
 def test_evaluate_and_pack_bad_input(tmp_path):

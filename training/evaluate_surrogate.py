@@ -80,29 +80,29 @@ except BadInput as exc:
     _fail(str(exc))
 meta = sur.metadata
 # a recorded path is relative to the repository (no machine paths in committed metadata)
-data = data or str(_cli.find_path(meta["dataset"]["path"]))
+data = data or str(_cli.find_path(sg.training_sets(meta)[0]["path"]))
 try:
     manifest = ds.read_manifest(data)
 except BadInput as exc:
     _fail(f"--data: {str(exc).removeprefix('DIR: ')}")
-# a set may differ from the training set in what does not change the beams' distribution or their
+# a set may differ from a training set in what does not change the beams' distribution or their
 # truth: the random stream (another seed: every beam is new), the fit's start count (a truth-only
 # training set has 0) and the labelling batch
-_ALLOWED = {"seed", "starts", "fit_batch"}
-_a, _b = dict(manifest["spec"]), dict(meta["dataset"]["spec"])
-for _key in _ALLOWED:
-    _a.pop(_key, None), _b.pop(_key, None)
-if ds.spec_difference(_a, _b) is not None:
+trained_on = sg.matching_training_set(meta, manifest["spec"])
+if trained_on is None:
+    _a, _b = dict(manifest["spec"]), dict(sg.training_sets(meta)[0]["spec"])
+    for _key in ("seed", "starts", "fit_batch"):
+        _a.pop(_key, None), _b.pop(_key, None)
     _fail(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
           f"(field {ds.spec_difference(_a, _b)})")
-other_seed = manifest["spec"]["seed"] != meta["dataset"]["spec"]["seed"]
+other_seed = manifest["spec"]["seed"] != trained_on["spec"]["seed"]
 if manifest["spec"]["starts"] == 0:
     _fail(f"evaluate_surrogate: data set {data} is truth-only (no optimised fits to compare "
           "with); make one with --starts 64 (the default)")
 table = ds.read_table(data, columns=["index", "x", "half_width", "thickness", "omega_truth",
                                      "gamma", "k", "loss_percent", "fit_time_s"],
                       status="ok").to_pandas()
-max_index = meta["dataset"]["max_index"]
+max_index = trained_on["max_index"]
 idx = table["index"].to_numpy()
 test_mask = (idx <= max_index) & (idx % 10 == 9) & (not other_seed)
 new_mask = (idx > max_index) | other_seed

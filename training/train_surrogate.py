@@ -143,7 +143,7 @@ for _d in data_sets:
     if not Path(_d, "_manifest.json").is_file():
         _fail(f"--data: {_d!r} is not a data set folder (no _manifest.json); make one with "
               f"`prbdm dataset generate`")
-if not data_sets or len(set(data_sets)) != len(data_sets):
+if not data_sets or len({Path(d).resolve() for d in data_sets}) != len(data_sets):
     _fail(f"--data: one or more distinct data set folders, comma-separated, got {data!r}")
 
 import torch  # noqa: E402  (after the configuration, as in nanoGPT)
@@ -153,6 +153,7 @@ from prbdm import model  # noqa: E402
 from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
+from prbdm.dataset.schema import flatten  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
 
 if device == "auto":
@@ -183,18 +184,18 @@ for _d in data_sets:
     if _spec["law"] != "beam":
         _fail(f"--data: the surrogate supports the 'beam' law only, {_d} has {_spec['law']!r}")
     if sets:
-        _first = sets[0]["spec"]
-        for _f in SAME_FIELDS + ("beam.material",):
-            _a, _b = _first, _spec
-            for _k in _f.split("."):
-                _a, _b = _a.get(_k, "eigenvalue" if _k == "objective" else None), \
-                    _b.get(_k, "eigenvalue" if _k == "objective" else None)
-            if _a != _b:
-                _fail(f"--data: {_d} differs from {data_sets[0]} in {_f} ({_b!r} vs {_a!r}); "
-                      f"sets trained together must agree on {', '.join(SAME_FIELDS)}, material")
+        _a = flatten({"objective": ds.DEFAULT_OBJECTIVE, **sets[0]["spec"]})
+        _b = flatten({"objective": ds.DEFAULT_OBJECTIVE, **_spec})
+        for _f in SAME_FIELDS + tuple(k for k in _a if k.startswith("beam.material.")):
+            if _a.get(_f) != _b.get(_f):
+                _fail(f"--data: {_d} differs from {data_sets[0]} in {_f} ({_b.get(_f)!r} vs "
+                      f"{_a.get(_f)!r}); sets trained together must agree on "
+                      f"{', '.join(SAME_FIELDS)}, material")
     _read = len(_t)
     _top = int(_t["index"].max()) if (max_index < 0 and _read) else max_index
     _t = _t[_t["index"] <= _top].reset_index(drop=True)
+    if len(_t) == 0:
+        _fail(f"--data: no ok records with index <= {_top} in {_d!r}")
     sets.append({"path": _cli.portable_path(_d), "spec": _spec, "size": len(_t),
                  "records_ok_read": _read, "max_index": _top,
                  "manifest_count": _manifest.get("count"), "sha256": sg.dataset_hash(_t),
@@ -207,8 +208,6 @@ records_read = sum(s_["records_ok_read"] for s_ in sets)
 if max_index < 0:
     max_index = sets[0]["max_index"]
 N = len(table)
-if N < 10:
-    _fail(f"--data: need at least 10 ok records, found {N} in {data!r}")
 # a truth-only set's records do not depend on the joints (no fit): it trains any n whose r
 # modes and n + 1 truth modes it holds; a labelled set only its own
 n = joints or spec["joints"]
@@ -219,7 +218,10 @@ if joints and joints != spec["joints"]:
     if spec["truth_modes"] < joints + 1:
         _fail(f"--joints: {data} holds {spec['truth_modes']} truth modes; n = {joints} needs "
               f"n + 1 = {joints + 1}")
-r = min(n, spec["modes"])
+# r modes are fitted: the set's, or with another n (truth-only) as many as n, as for its own n
+r = min(n, spec["modes"]) if n == spec["joints"] else n
+if N < 10:
+    _fail(f"--data: need at least 10 ok records, found {N} in {data!r}")
 # a truth-only set (``prbdm dataset generate --starts 0``) has no fitted labels: only the physics
 # mode can train on it (it needs the truth frequencies alone); the label normalisation is then the
 # rigid-finite-element segmentation and k = 1

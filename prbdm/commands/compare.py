@@ -105,6 +105,12 @@ def run(args) -> int:
                                                        beam)
     if declined and declined != NARROW_PLATE:
         notes.append(f"{declined}; the beam network is measured instead")
+    if declined == NARROW_PLATE:          # the reason, as predict's truth_reason (no warning)
+        from ..constants import PLATE_NETWORK_MIN_WIDTH
+
+        reason += (f"; the beam network {sur.name} answers: on plate panels up to "
+                   f"{PLATE_NETWORK_MIN_WIDTH:g} L wide it was measured closer to the plate than "
+                   "the plate network (docs/surrogate.md)")
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
     notes += [w for w in (sur.accuracy_warning(),) if w]

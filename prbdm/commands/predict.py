@@ -214,9 +214,9 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     if declined == NARROW_PLATE:
         from ..constants import PLATE_NETWORK_MIN_WIDTH
 
-        return (f"{why}; checkpoint {sur.name}: on panels up to {PLATE_NETWORK_MIN_WIDTH:g} L "
-                f"wide the beam network was measured closer to the plate than the plate network "
-                f"(docs/surrogate.md)"), None
+        return (f"{why}; the beam network {sur.name} answers: on plate panels up to "
+                f"{PLATE_NETWORK_MIN_WIDTH:g} L wide it was measured closer to the plate than "
+                "the plate network (docs/surrogate.md)"), None
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {model} network is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",

@@ -43,12 +43,17 @@ class ReportConfig:
 def held_out_beams(cfg: ReportConfig, sur) -> tuple[list, dict]:
     """The beams to evaluate and a description of where they come from."""
     from ..geometry import random_beam
+    from ..surrogate import training_sets
 
-    train_seed = sur.metadata.get("dataset", {}).get("spec", {}).get("seed")
+    seeds = [s.get("spec", {}).get("seed") for s in training_sets(sur.metadata)]
+    train_seed = seeds[0]
     if cfg.data is None:
-        if train_seed is not None and cfg.seed == train_seed:
+        # any training set's seed: a set drawn with other width bounds still shares the
+        # stations, width fractions and thickness of the same (seed, index)
+        if cfg.seed in seeds:
             raise BadInput(f"--seed {cfg.seed}: that is the seed of the checkpoint's training "
-                           f"data; held-out beams need another seed (>= 0, != {train_seed})")
+                           f"data; held-out beams need another seed (>= 0, not in "
+                           f"{sorted(x for x in seeds if x is not None)})")
         beams = [random_beam(cfg.seed, i) for i in range(cfg.beams)]
         return beams, {"source": "generated", "generator": "prbdm.random_beam(seed, index), "
                        "paper generator p = 10", "seed": cfg.seed,
@@ -59,11 +64,11 @@ def held_out_beams(cfg: ReportConfig, sur) -> tuple[list, dict]:
     spec = manifest["spec"]
     table = ds.read_table(cfg.data, columns=["index"], status="ok").to_pandas()
     idx = np.sort(table["index"].to_numpy())
-    meta_ds = sur.metadata.get("dataset", {})
-    same = (ds.spec_difference(spec.get("beam", {}), meta_ds.get("spec", {}).get("beam", {}))
-            is None and spec.get("seed") == train_seed)
+    same = next((s for s in training_sets(sur.metadata)
+                 if ds.spec_difference(spec.get("beam", {}), s.get("spec", {}).get("beam", {}))
+                 is None and spec.get("seed") == s.get("spec", {}).get("seed")), None)
     if same:
-        max_index = int(meta_ds.get("max_index", -1))
+        max_index = int(same.get("max_index", -1))
         idx = idx[(idx > max_index) | (idx % 10 == 9)]
         rule = (f"index > {max_index} (generated after the checkpoint's snapshot) or "
                 "index % 10 == 9 (its test split)")

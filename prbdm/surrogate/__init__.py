@@ -26,7 +26,8 @@ from __future__ import annotations
 
 from .checkpoint import (CHECKPOINT_FORMAT, CHECKPOINT_VERSION, PACKAGE_CHECKPOINTS,
                          available_checkpoints, checkpoint_name, dataset_hash,
-                         default_checkpoint, read_checkpoint, save_checkpoint, weights_sha256)
+                         default_checkpoint, matching_training_set, read_checkpoint,
+                         save_checkpoint, training_sets, weights_sha256)
 from .decode import (GAMMA_MAX, GAMMA_MIN, K_DELTA_SCALE, K_MODES, SELECT_POSES,
                      candidate_losses, combine_members, decode_numpy, decode_torch,
                      gamma_from_logits_np, gauss_select_poses, project_k)
@@ -44,7 +45,7 @@ __all__ = ["BeamBatch", "FeatureSpec", "features", "feature_names", "prbdm_eigen
            "default_threads", "OutOfDistributionWarning", "ImplausiblePredictionWarning",
            "LowAccuracyWarning",
            "save_checkpoint", "read_checkpoint", "default_checkpoint", "available_checkpoints",
-           "checkpoint_name", "dataset_hash", "weights_sha256", "CHECKPOINT_FORMAT",
+           "checkpoint_name", "dataset_hash", "training_sets", "matching_training_set", "weights_sha256", "CHECKPOINT_FORMAT",
            "CHECKPOINT_VERSION", "PACKAGE_CHECKPOINTS", "GAMMA_MIN", "GAMMA_MAX", "K_MODES",
            "K_DELTA_SCALE", "SELECT_POSES", "gauss_select_poses", "gamma_from_logits_np",
            "decode_numpy", "decode_torch", "combine_members", "candidate_losses", "project_k",

@@ -55,6 +55,29 @@ def dataset_hash(table) -> str:
     return h.hexdigest()
 
 
+def training_sets(metadata: dict) -> list[dict]:
+    """The data sets a checkpoint was trained on, each ``{"path", "spec", "max_index", ...}``:
+    ``dataset.sets`` when it saw several (``train_surrogate.py --data A,B``), else its one
+    ``dataset``. Which beams it saw: index <= max_index of each set's stream (spec seed and
+    generator), the test split (index % 10 == 9) excepted."""
+    ds = metadata.get("dataset", {})
+    return list(ds.get("sets") or [ds])
+
+
+def matching_training_set(metadata: dict, spec: dict, allowed=("seed", "starts", "fit_batch")):
+    """The training set whose spec equals ``spec`` but for the ``allowed`` fields (None when
+    none does): another data set of the same kind of beams and truth."""
+    from ..dataset import spec_difference
+
+    def strip(d):
+        return {k: v for k, v in d.items() if k not in allowed}
+
+    for s in training_sets(metadata):
+        if spec_difference(strip(s.get("spec", {})), strip(spec)) is None:
+            return s
+    return None
+
+
 def weights_sha256(weights: dict) -> str:
     """sha256 of the weights, by name in sorted order: the name, the little-endian dtype and the
     shape (as JSON), then the raw little-endian bytes. It does not depend on the file's layout,

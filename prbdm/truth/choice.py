@@ -38,19 +38,20 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
                         f"the beam is within {AUTO_TOLERANCE:.0%} of the plate on modes 1-4 for "
                         "95 % of measured panels this narrow (docs/truth.md)")
     from ..errors import BadInput
-    from ..geometry import check_beam
+    from ..geometry import MAX_PLATE_THICKNESS_RATIO, check_beam
 
-    try:
-        check_beam(beam, "plate")
-    except BadInput as exc:
-        # a panel the plate cannot take (thicker than half its width, or a width that varies too
-        # much for its mesh) that the beam can: the beam, and why; else the plate's refusal stands
+    if beam.thickness > MAX_PLATE_THICKNESS_RATIO * 2 * float(beam.half_width.max()):
+        # thicker than half its width: a bar, outside thin-plate theory (the plate refuses it);
+        # the beam when it accepts the panel, else the plate's refusal stands. Other plate
+        # limits (a width varying too much for its mesh) are not a reason to answer a wide
+        # panel with the beam's physics: their refusal stands
         try:
             check_beam(beam, "beam")
         except BadInput:
             return "plate", f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L"
-        return "beam", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L, but not a thin "
-                        f"plate ({exc}): solved as a beam")
+        return "beam", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L, but thicker "
+                        f"than {MAX_PLATE_THICKNESS_RATIO:g} x its full width, outside thin-plate "
+                        "theory: solved as a beam (docs/truth.md)")
     return "plate", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would "
                      f"differ from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 "
                      "or more this wide (docs/truth.md)")
