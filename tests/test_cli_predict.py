@@ -414,7 +414,7 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
     r = json.loads(out)
     assert rc == 0 and r["truth"] == "beam" and "faithful truth is the plate" in err
-    assert "--truth plate" in r["warnings"][-1]
+    assert "--truth plate" in r["warnings"][-1] and "no plate network for 2 joints" in err
     # a plate network in the folder is taken for the wide panel (a copy: its metadata still says
     # beam, so the answer names that too)
     shutil.copy(tiny_checkpoint(tiny_set), folder / "plate-n2.safetensors")

@@ -218,7 +218,7 @@ def truth_reason(beam, sur, asked, choice, declined=None,
                 f"{PLATE_NETWORK_MIN_WIDTH:g} L wide it was measured closer to the plate than "
                 "the plate network (docs/surrogate.md)"), None
     missing = declined or (f"--checkpoint {sur.name} was given" if given
-                           else f"no {model} network is shipped")
+                           else f"no {model} network for {sur.joints} joints is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
             f"faithful truth is the {model} (`--truth auto`), but {missing}, "
