@@ -4,8 +4,9 @@ Four ways to get the PRBDM of one beam, side by side:
 
 - ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against; by
   default ``auto`` as in ``prbdm predict``: the plate for a panel wider than 0.05 L, with the
-  plate network when one is found and can answer the panel, else the beam network measured
-  against the plate, said in ``warnings``);
+  plate network when the panel is wider than 0.1 L and one is found that can answer it, else the
+  beam network measured against the plate (on purpose up to 0.1 L, said in ``truth.reason``;
+  otherwise said in ``warnings``);
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``), minimising
@@ -43,8 +44,9 @@ def add_arguments(parser):
                         help="number of revolute joints n (a checkpoint must exist for it)")
     parser.add_argument("--truth", choices=("beam", "plate", "auto"), default=None,
                         help="truth model and network (default: auto, as prbdm predict: the "
-                             "plate for a panel wider than 0.05 L, with the plate network when "
-                             "one is found, else the beam network measured against the plate)")
+                             "plate for a panel wider than 0.05 L, with the plate network above "
+                             "0.1 L when one is found, else the beam network measured against "
+                             "the plate)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (default: the packaged one for --joints, "
                              "--truth)")
@@ -109,8 +111,8 @@ def run(args) -> int:
         from ..constants import PLATE_NETWORK_MIN_WIDTH
 
         reason += (f"; the beam network {sur.name} answers: on plate panels up to "
-                   f"{PLATE_NETWORK_MIN_WIDTH:g} L wide it was measured closer to the plate than "
-                   "the plate network (docs/surrogate.md)")
+                   f"{PLATE_NETWORK_MIN_WIDTH:g} L wide its PRBDM was measured closer to the plate than "
+                   "the plate network's (docs/surrogate.md)")
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
     notes += [w for w in (sur.accuracy_warning(),) if w]

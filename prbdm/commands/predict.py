@@ -43,8 +43,10 @@ def add_arguments(parser):
                         help="number of revolute joints n (a checkpoint must exist for it)")
     parser.add_argument("--truth", choices=(*TRUTHS, "auto"), default=None,
                         help="truth model the network was trained on (default auto: the "
-                             "plate's network for a panel wider than 0.05 L when one is found, "
-                             "else the beam's; with --checkpoint, the checkpoint's)")
+                             "plate's network for a panel wider than 0.1 L when one is found "
+                             "and covers it, else the beam's, whose PRBDM is the closer to the "
+                             "plate on plate panels 0.05-0.1 L wide; with --checkpoint, the "
+                             "checkpoint's)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (.safetensors); default: the packaged one for "
                              "--joints and --truth")
@@ -215,15 +217,16 @@ def truth_reason(beam, sur, asked, choice, declined=None,
         from ..constants import PLATE_NETWORK_MIN_WIDTH
 
         return (f"{why}; the beam network {sur.name} answers: on plate panels up to "
-                f"{PLATE_NETWORK_MIN_WIDTH:g} L wide it was measured closer to the plate than "
-                "the plate network (docs/surrogate.md)"), None
+                f"{PLATE_NETWORK_MIN_WIDTH:g} L wide its PRBDM was measured closer to the plate than "
+                "the plate network's (docs/surrogate.md)"), None
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {model} network for {sur.joints} joints is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
             f"faithful truth is the {model} (`--truth auto`), but {missing}, "
-            f"so this answer follows the {sur.truth} physics (on the paper's wide "
-            "panels the beam is a median 2-15 % off the plate on modes 1-4, docs/truth.md); "
+            f"so this answer follows the {sur.truth} physics (the beam is a median 1-5 % off "
+            "the plate on modes 1-4 for panels 0.1-0.5 L wide and 13-50 % at 0.5-1 L, "
+            "docs/truth.md); "
             f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
 
@@ -237,9 +240,9 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     (``chosen``, from :func:`network_truth`); when this panel lies outside that network's
     training range, or the network refuses it (BadInput: a feature it never saw vary, such as
     nu, or an implausible answer), the beam network's answer instead, with ``declined`` saying
-    why: an extrapolating plate network was measured worse than the beam network (the plate-n4
-    trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of datasets/plate-n4-narrow-seed3:
-    loss 5.9 % against beam-n4's 0.41 %). A plate panel no wider than PLATE_NETWORK_MIN_WIDTH
+    why: an extrapolating plate network was measured worse than the beam network (the earlier
+    plate-n4, commit e6a900f, trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of
+    datasets/plate-n4-narrow-seed3: loss 5.9 % against beam-n4's 0.40 %). A plate panel no wider than PLATE_NETWORK_MIN_WIDTH
     goes to the beam network on purpose (``declined`` = NARROW_PLATE): measured closer to the
     plate there (docs/surrogate.md). A network that was asked for (``--truth``, ``--checkpoint``)
     or the beam network itself: its answer or refusal stands."""
