@@ -39,6 +39,21 @@ class ReportConfig:
             self.progress(text)
 
 
+def _portable(described: dict) -> dict:
+    """The checkpoint's description with its path relative to the working directory when it lies
+    inside it: a committed report carries no machine paths."""
+    from pathlib import Path
+
+    path = described.get("path")
+    if path:
+        try:
+            described = {**described,
+                         "path": Path(path).resolve().relative_to(Path.cwd().resolve()).as_posix()}
+        except ValueError:
+            pass
+    return described
+
+
 # ============================================================================ held-out beams
 def held_out_beams(cfg: ReportConfig, sur) -> tuple[list, dict]:
     """The beams to evaluate and a description of where they come from."""
@@ -291,7 +306,7 @@ def run_report(cfg: ReportConfig) -> dict:
                    "poses": [p[0] for p in poses], "law": "beam", "refine_iter": REFINE_ITER,
                    "objective": cfg.objective, "command": cfg.command},
         "source": source,
-        "checkpoint": {**sur.describe(),
+        "checkpoint": {**_portable(sur.describe()),
                        "dataset_max_index": sur.metadata.get("dataset", {}).get("max_index"),
                        "dataset_seed": sur.metadata.get("dataset", {}).get("spec", {}).get("seed"),
                        "candidates": sur.hypotheses},
