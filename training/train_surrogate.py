@@ -39,6 +39,7 @@ the run lasts, so a failed run leaves an earlier log as it was).
 """
 import atexit
 import datetime as dt
+import hashlib
 import json
 import math
 import os
@@ -290,8 +291,8 @@ else:
 y_corr = log_omega_hat - feats[:, base]
 # one set: the hash of its records (as before); several: of their hashes, in the given order
 sha = (sets[0]["sha256"] if len(sets) == 1 else
-       __import__("hashlib").sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
-for s_ in sets[1:] if len(sets) > 1 else []:
+       hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
+for s_ in sets[1:]:
     log(f"  with {s_['path']}: {s_['size']} records (index <= {s_['max_index']}), "
         f"generator {json.dumps(s_['spec']['beam']['max_half_width'])} m, seed {s_['spec']['seed']}")
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index}; n = {n}, "

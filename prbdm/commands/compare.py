@@ -76,7 +76,8 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
-    from .predict import NARROW_PLATE, answer_or_fall_back, auto_choice, network_truth
+    from .predict import (NARROW_PLATE, answer_or_fall_back, auto_choice, narrow_plate_reason,
+                          network_truth)
 
     # `--truth auto` (the default): the truth the panel needs, and that truth's network when one
     # is found and can answer this panel; otherwise the beam network, measured against it
@@ -108,11 +109,7 @@ def run(args) -> int:
     if declined and declined != NARROW_PLATE:
         notes.append(f"{declined}; the beam network is measured instead")
     if declined == NARROW_PLATE:          # the reason, as predict's truth_reason (no warning)
-        from ..constants import PLATE_NETWORK_MIN_WIDTH
-
-        reason += (f"; the beam network {sur.name} answers: on plate panels up to "
-                   f"{PLATE_NETWORK_MIN_WIDTH:g} L wide its PRBDM was measured closer to the plate than "
-                   "the plate network's (docs/surrogate.md)")
+        reason += f"; {narrow_plate_reason(sur)}"
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
     notes += [w for w in (sur.accuracy_warning(),) if w]

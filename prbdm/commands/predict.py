@@ -208,21 +208,19 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     plate's differs from (issue 16). ``declined``: why the network of the chosen truth did not
     answer (it was found but refused this panel); ``given``: the network was named by
     --checkpoint."""
+    from ..truth.choice import width_ratio
+
     if asked is not None or choice is None:
         return f"--truth {asked} as asked (checkpoint {sur.name})", None
     model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
     if declined == NARROW_PLATE:
-        from ..constants import PLATE_NETWORK_MIN_WIDTH
-
-        return (f"{why}; the beam network {sur.name} answers: on plate panels up to "
-                f"{PLATE_NETWORK_MIN_WIDTH:g} L wide its PRBDM was measured closer to the plate than "
-                "the plate network's (docs/surrogate.md)"), None
+        return f"{why}; {narrow_plate_reason(sur)}", None
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {model} network for {sur.joints} joints is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
-            f"this panel is {2 * float(beam.half_width.max()) / beam.length:.3g} L wide: its "
+            f"this panel is {width_ratio(beam):.3g} L wide: its "
             f"faithful truth is the {model} (`--truth auto`), but {missing}, "
             f"so this answer follows the {sur.truth} physics (the beam is a median 1-5 % off "
             "the plate on modes 1-4 for panels 0.1-0.5 L wide and 13-50 % at 0.5-1 L, "
@@ -233,6 +231,16 @@ def truth_reason(beam, sur, asked, choice, declined=None,
 #: ``declined`` when `--truth auto` gives a plate panel narrower than PLATE_NETWORK_MIN_WIDTH to
 #: the beam network on purpose (measured closer to the plate there): a reason, not a warning
 NARROW_PLATE = "narrow plate"
+
+
+def narrow_plate_reason(sur) -> str:
+    """Why the beam network ``sur`` answers a narrow plate panel (predict's ``truth_reason``,
+    compare's ``truth.reason``)."""
+    from ..constants import PLATE_NETWORK_MIN_WIDTH
+
+    return (f"the beam network {sur.name} answers: on plate panels up to "
+            f"{PLATE_NETWORK_MIN_WIDTH:g} L wide its PRBDM was measured closer to the plate than "
+            "the plate network's (docs/surrogate.md)")
 
 
 def answer_or_fall_back(args, sur, chosen, answer, beam):
