@@ -299,6 +299,13 @@ MAX_PLATE_ASPECT = 5.0
 #: ``plate``: largest thickness over full width, ``t / (2 max(half_width))``; a panel thicker
 #: than half its widest chord is no thin plate. Random beams: at most 0.11 in 20 000 (seed 0)
 MAX_PLATE_THICKNESS_RATIO = 0.5
+#: ``plate``: smallest interior corner of the half planform [degrees]. A sharper corner is the
+#: tip of a tongue (two stations a millimetre apart with a large change of half-width between
+#: them) that the plate mesh can only fill with slivers, whose stiffness matrix is numerically
+#: singular: on random panels with corners below 0.4 degrees the plate's first two frequencies
+#: changed by up to 8x between two mesh densities, with no warning; above 1 degree by at most
+#: 9e-4 (docs/truth.md, "Sharp corners"). Random beams: 2.9 % of the paper's generator (seed 0)
+MIN_PLATE_CORNER_DEGREES = 1.0
 #: hard limits, far outside any panel, so that nothing downstream over- or underflows in float64
 #: (L^4 and t^3 appear in the frequency scale): field -> (low, high, unit)
 HARD_LIMITS = {"L": (1e-9, 1e9, "m"), "thickness": (1e-9, 1e9, "m"),
@@ -311,6 +318,20 @@ HARD_LIMITS = {"L": (1e-9, 1e9, "m"), "thickness": (1e-9, 1e9, "m"),
 #: (10 kg/m^3) to osmium (22 600 kg/m^3); thickness relative to L from a 10 um foil on 1 m
 PLAUSIBLE = {"L": (1e-4, 100.0), "E": (1e5, 1.5e12), "rho": (10.0, 2.3e4),
              "thickness/L": (1e-5, MAX_THICKNESS_RATIO)}
+
+
+def smallest_corner(beam: Beam) -> tuple[float, float, float]:
+    """The smallest interior angle [degrees] of the half planform (clamped root edge, axis,
+    tip edge and the free edge ``y = half_width(x)``) and its vertex ``(x, y)`` [m]."""
+    x, w = beam.x, beam.half_width
+    # counter-clockwise: along the axis, up the tip edge, back along the free edge, down the root
+    P = np.vstack([[[x[0], 0.0], [x[-1], 0.0]], np.column_stack([x[::-1], w[::-1]])])
+    a = np.roll(P, 1, axis=0) - P                   # to the previous vertex
+    b = np.roll(P, -1, axis=0) - P                  # to the next
+    angle = np.degrees(np.arctan2(b[:, 0] * a[:, 1] - b[:, 1] * a[:, 0],
+                                  np.einsum("ij,ij->i", a, b))) % 360.0
+    i = int(np.argmin(angle))
+    return float(angle[i]), float(P[i, 0]), float(P[i, 1])
 
 
 def check_beam(beam: Beam, model: str | None = None) -> None:
@@ -358,6 +379,13 @@ def check_beam(beam: Beam, model: str | None = None) -> None:
                            f"{MAX_PLATE_THICKNESS_RATIO:g} x the full width 2 max(half_width) for "
                            f"thin-plate theory; this panel's is {tb:.3g} x (the beam model has "
                            "no such limit)")
+        corner, cx, cy = smallest_corner(beam)
+        if not corner >= MIN_PLATE_CORNER_DEGREES:
+            raise BadInput(f"half_width: the {model} model needs every corner of the planform to "
+                           f"be at least {MIN_PLATE_CORNER_DEGREES:g} degrees; this one has a "
+                           f"corner of {corner:.3g} degrees at x = {cx:.6g} m, half-width "
+                           f"{cy:.6g} m (a sliver its mesh cannot resolve; the beam model has no "
+                           "such limit)")
     values = {"L": L, "thickness": beam.thickness, "max(half_width)": float(w.max()),
               "material.E": beam.material.E, "material.rho": beam.material.rho}
     for name, (lo, hi, unit) in HARD_LIMITS.items():

@@ -82,6 +82,12 @@ def test_stdin(beam_file):
      "half_width: model 'beam' needs a full width 2 max(half_width) of at most 10 L"),
     (["--model", "plate"], {"x": [0, 1], "half_width": [0.002, 0.002], "thickness": 0.003},
      "thickness: the plate model needs a thickness of at most 0.5 x"),
+    # a tongue at the tip: stations 1.6 mm apart, the half-width rising 0.11 -> 0.49 m between
+    # them (random_beam(0, 219, min_half_width=0.01)'s tip; a 0.24-degree corner)
+    (["--model", "plate"], {"x": [0, 0.9984, 1], "half_width": [0.2, 0.1119, 0.492],
+                            "thickness": 0.02}, "corner of 0.241 degrees"),
+    (["--model", "mindlin"], {"x": [0, 0.9984, 1], "half_width": [0.2, 0.1119, 0.492],
+                              "thickness": 0.02}, "at least 1 degrees"),
 ])
 def test_bad_input_is_one_line_and_exit_2(beam_file, args, data, needle):
     proc = subprocess.run([sys.executable, "-m", "prbdm.cli", "truth", beam_file(data), *args],

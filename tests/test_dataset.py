@@ -658,3 +658,14 @@ def test_old_set_keeps_its_columns_and_objective(tmp_path, capsys):
     assert D.generate(out, 7, {**spec, "objective": "eigenvalue"}, workers=0,
                       labeller=fake_labeller, progress="none")["new"] == 1
     assert isinstance(pa.concat_tables([pq.read_table(p) for p in D.part_files(out)]), pa.Table)
+
+
+def test_refused_by_truth_flags_records_todays_truth_refuses():
+    import pandas as pd
+    from prbdm.dataset import make_spec, refused_by_truth
+    rows = pd.DataFrame({"x": [[0, 0.5, 1], [0, 0.9984, 1]],
+                         "half_width": [[0.3, 0.2, 0.1], [0.2, 0.1119, 0.492]],
+                         "thickness": [0.02, 0.02]})
+    # the second is a tongue with a 0.24-degree corner: the plate refuses it, the beam does not
+    assert refused_by_truth(rows, make_spec(4, truth="plate")).tolist() == [False, True]
+    assert refused_by_truth(rows, make_spec(4, truth="beam")).tolist() == [False, False]

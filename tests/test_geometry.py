@@ -285,3 +285,37 @@ def test_random_beam_parameters():
                           (dict(seed=0, index=0, min_thickness=0.0), "min_thickness")]:
         with pytest.raises(BadInput, match=field):
             random_beam(**kwargs)
+
+
+def test_smallest_corner():
+    from prbdm.geometry import smallest_corner
+    rect = Beam(x=[0, 1], half_width=[0.2, 0.2], thickness=0.01)
+    assert smallest_corner(rect)[0] == pytest.approx(90.0)
+    # a spike: half-width 0.1 -> 0.5 -> 0.1 over 0.01 m each side; its corner is
+    # 2 atan(0.01 / 0.4), at the spike's top
+    spike = Beam(x=[0, 0.49, 0.5, 0.51, 1], half_width=[0.1, 0.1, 0.5, 0.1, 0.1],
+                 thickness=0.01)
+    angle, x, y = smallest_corner(spike)
+    assert angle == pytest.approx(2 * math.degrees(math.atan(0.01 / 0.4)))
+    assert (x, y) == (0.5, 0.5)
+    # invariant to the scale, and the tip counts: a tongue rising beside the tip edge
+    tongue = Beam(x=[0, 0.9984, 1], half_width=[0.2, 0.1119, 0.492], thickness=0.02)
+    big = Beam(x=[0, 99.84, 100], half_width=[20, 11.19, 49.2], thickness=2)
+    assert smallest_corner(tongue)[0] == pytest.approx(math.degrees(math.atan(0.0016 / 0.3801)))
+    assert smallest_corner(big)[0] == pytest.approx(smallest_corner(tongue)[0])
+    assert smallest_corner(tongue)[1:] == (1.0, 0.492)
+
+
+def test_plate_refuses_sharp_corners_and_the_beam_does_not():
+    from prbdm.geometry import MIN_PLATE_CORNER_DEGREES, check_beam, smallest_corner
+    tongue = Beam(x=[0, 0.9984, 1], half_width=[0.2, 0.1119, 0.492], thickness=0.02)
+    for model in ("plate", "mindlin"):
+        with pytest.raises(BadInput, match=r"half_width: .* at least 1 degrees.* 0\.241 degrees"):
+            check_beam(tongue, model)
+    check_beam(tongue, "beam")
+    check_beam(tongue)
+    # just above the limit: accepted
+    dx = 0.38 * math.tan(math.radians(1.01 * MIN_PLATE_CORNER_DEGREES))
+    ok = Beam(x=[0, 1 - dx, 1], half_width=[0.2, 0.11, 0.49], thickness=0.02)
+    assert smallest_corner(ok)[0] > MIN_PLATE_CORNER_DEGREES
+    check_beam(ok, "plate")

@@ -29,7 +29,8 @@ from __future__ import annotations
 from .label import chunks, fit_seed, label_beam, label_beams, label_chunk
 from .run import Progress, generate
 from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, DEFAULT_STARTS, FORMAT,
-                     FORMAT_VERSION, MANIFEST, OBJECTIVES, beam_for, make_spec, spec_difference)
+                     FORMAT_VERSION, MANIFEST, OBJECTIVES, beam_for, make_spec, refused_by_truth,
+                     spec_difference)
 from .storage import (FolderLock, existing_indices, git_commit, info, part_files, read_manifest,
                       read_table, versions)
 
@@ -37,7 +38,8 @@ from .storage import (FolderLock, existing_indices, git_commit, info, part_files
 _git_commit, _versions = git_commit, versions
 
 __all__ = ["make_spec", "label_beam", "label_beams", "label_chunk", "generate", "info",
-           "read_table", "read_manifest", "part_files", "beam_for", "chunks", "spec_difference",
+           "read_table", "read_manifest", "part_files", "beam_for", "refused_by_truth", "chunks",
+           "spec_difference",
            "fit_seed", "existing_indices", "FolderLock", "Progress", "MANIFEST", "FORMAT",
            "FORMAT_VERSION", "COLUMNS", "OBJECTIVES", "DEFAULT_OBJECTIVE", "DEFAULT_FIT_BATCH",
            "DEFAULT_STARTS"]

@@ -151,6 +151,25 @@ def beam_for(spec: dict, index: int):
     return random_beam(spec["seed"], index, material=material, **gen)
 
 
+def refused_by_truth(table, spec: dict) -> np.ndarray:
+    """(N,) bool: the records of a stored set whose beam today's truth model refuses
+    (:func:`prbdm.geometry.check_beam` with the spec's truth), from their ``x``, ``half_width``
+    and ``thickness`` columns. A set labelled before a limit was added keeps those records as
+    ``ok`` (e.g. plate panels with a corner sharper than ``MIN_PLATE_CORNER_DEGREES``, whose
+    stored plate frequencies can be wrong): training and evaluation leave them out."""
+    from ..geometry import Beam, check_beam
+
+    material = Material(**spec["beam"]["material"])
+    out = np.zeros(len(table), dtype=bool)
+    for i, (x, w, t) in enumerate(zip(table["x"], table["half_width"], table["thickness"])):
+        try:
+            check_beam(Beam(x=np.asarray(x), half_width=np.asarray(w), thickness=float(t),
+                            material=material), spec["truth"])
+        except BadInput:
+            out[i] = True
+    return out
+
+
 #: the record columns of a new set, in order: name -> (pyarrow type name, meaning). A set keeps
 #: the columns its manifest lists (``frequency_percent`` is absent from sets made before it)
 COLUMNS = {
