@@ -113,7 +113,7 @@ def main(argv=None):
     f, lw, fr = (np.concatenate([p[i] for p in parts]) for i in range(3))
     base = fspec.base_columns(fspec.rfe_modes)
     cols = [base.start + min(j, fspec.rfe_modes - 1) for j in range(S)]
-    y, yh = lw - f[:, cols], lh - fh[:, cols]
+    y = lw - f[:, cols]
     fm, fs, ym, ys = f.mean(0), f.std(0) + 1e-6, y.mean(0), y.std(0) + 1e-6
     X = torch.tensor((f - fm) / fs, dtype=torch.float32)
     Y = torch.tensor((y - ym) / ys, dtype=torch.float32)
