@@ -56,3 +56,55 @@ def test_a_panel_the_plate_cannot_take_is_a_beam_with_the_reason():
     # a panel neither truth accepts keeps the plate (whose refusal names the limit)
     wide_thick = Beam(x=[0, 1], half_width=[0.2, 0.2], thickness=0.25)
     assert choose_truth(wide_thick)[0] == "plate"
+
+
+MINDLIN_VS_PLATE = Path(__file__).resolve().parents[1] / "docs" / "mindlin-vs-plate.json"
+
+
+def test_shear_caveat_rule_against_the_recorded_kirchhoff_mindlin_differences():
+    """The panels the plate caveat spares differ from Mindlin by little, those it flags by more:
+    on the recorded random panels (docs/mindlin-vs-plate.json)."""
+    from prbdm.truth.choice import shear_caveat
+    rows = json.loads(MINDLIN_VS_PLATE.read_text())["rows"]
+    flagged, spared = [], []
+    for r in rows:
+        b = random_beam(7, r["index"], min_half_width=0.01)
+        assert abs(b.thickness / b.length - r["t_over_L"]) < 1e-12
+        worst = np.max(np.abs(np.array(r["plate"]) / np.array(r["mindlin"]) - 1))
+        (flagged if shear_caveat(b, "plate") else spared).append(worst)
+    assert len(flagged) >= 60 and np.median(flagged) > 0.02 and len(spared) <= len(rows) // 10
+
+
+def test_shear_caveat_spares_thin_smooth_panels_and_uniform_strips_and_flags_necks():
+    from prbdm.truth.choice import shear_caveat
+    thin_square = Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.005)
+    strip = Beam(x=[0, 1], half_width=[0.02, 0.02], thickness=0.01)     # 4 t wide, no neck
+    assert shear_caveat(thin_square, "plate") is None and shear_caveat(strip, "plate") is None
+    # a thin panel with a wide neck: measured 0.4-1.3 % (docs/truth.md), spared
+    wide_neck = Beam(x=[0, 0.4, 0.5, 0.6, 1], half_width=[0.4, 0.4, 0.1, 0.4, 0.4],
+                     thickness=0.005)
+    assert shear_caveat(wide_neck, "plate") is None
+    assert shear_caveat(Beam(x=wide_neck.x, half_width=wide_neck.half_width, thickness=0.01),
+                        "plate")
+    thick = Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.03)
+    necked = Beam(x=[0, 0.4, 0.5, 0.6, 1], half_width=[0.4, 0.4, 0.02, 0.4, 0.4],
+                  thickness=0.006)                                       # a neck 6.7 t wide
+    for b in (thick, necked):
+        text = shear_caveat(b, "plate")
+        assert text and "mindlin" in text and "docs/truth.md" in text
+    assert shear_caveat(thick, "mindlin") is None
+    # the beam: from t/L where its mode 4 is ~1 % high on a smooth panel
+    assert shear_caveat(Beam(x=[0, 1], half_width=[0.02, 0.02], thickness=0.01), "beam") is None
+    assert "high" in shear_caveat(Beam(x=[0, 1], half_width=[0.02, 0.02], thickness=0.03), "beam")
+
+
+def test_shear_caveat_reaches_the_commands(tmp_path):
+    import subprocess
+    import sys
+    path = tmp_path / "thick.json"
+    path.write_text(json.dumps({"x": [0, 1], "half_width": [0.5, 0.5], "thickness": 0.03}))
+    proc = subprocess.run([sys.executable, "-m", "prbdm.cli", "truth", str(path), "--model",
+                           "plate", "--json"], capture_output=True, text=True)
+    assert proc.returncode == 0
+    assert "leaves out transverse shear" in json.loads(proc.stdout)["warnings"][0]
+    assert "prbdm truth: warning: the Kirchhoff plate leaves out" in proc.stderr

@@ -95,6 +95,10 @@ def run(args) -> int:
     out = result.to_dict()
     out["truth"] = {"model": truth.model, "time_s": truth.time_s, "reason": reason}
     out["links"] = {key: v.tolist() for key, v in links.items()}
+    from ..truth.choice import shear_caveat
+    caveat = shear_caveat(beam, truth.model)
+    if caveat:
+        warnings.append(caveat)
     out["warnings"] = warnings
     out["input"] = info
     out["beam_fingerprint"] = beam_fingerprint(beam)   # export/simulate --from check it

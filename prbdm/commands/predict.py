@@ -297,6 +297,10 @@ def predict_command(args) -> int:
     out["input"] = info
     out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice, declined,
                                                       args.checkpoint is not None)
+    from ..truth.choice import shear_caveat
+    caveat = shear_caveat(beam, sur.truth)           # the physics the network learned
+    if caveat:
+        out["warnings"].append(caveat)
     if wrong_physics:
         out["warnings"].append(wrong_physics)
     for w in out["warnings"]:

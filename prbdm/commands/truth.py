@@ -8,6 +8,7 @@ draws the planform and the kept mode shapes (the idea of the paper's Fig. 13). N
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 from ..errors import BadInput
@@ -54,8 +55,14 @@ def run(args) -> int:
                               all_modes=args.all_modes, elements=args.elements, **options)
     if args.plot is not None:
         plot_modes(beam, res, args.plot)
+    from ..truth.choice import shear_caveat
+    caveat = shear_caveat(beam, res.model)
+    warnings = [caveat] if caveat else []
+    for w in warnings:
+        sys.stderr.write(f"prbdm truth: warning: {w}\n")
     if args.json:
-        print_json({**res.to_dict(all_modes=args.all_modes), "input": info})
+        print_json({**res.to_dict(all_modes=args.all_modes), "input": info,
+                    "warnings": warnings})
         return 0
     print(_report(beam, res, args.all_modes))
     return 0

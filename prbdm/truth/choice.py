@@ -55,3 +55,50 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
     return "plate", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would "
                      f"differ from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 "
                      "or more this wide (docs/truth.md)")
+
+
+# ------------------------------------------------------------------ what the thin models leave out
+#: The Euler-Bernoulli beam and the Kirchhoff plate leave out transverse shear and rotary inertia.
+#: Measured (docs/truth.md, "What the Kirchhoff plate leaves out"): on the paper's random panels
+#: the Kirchhoff plate is above the Reissner-Mindlin plate by more than 1 % on some mode 1-4 for
+#: 97 % of the panels 0.01 L thick or more (1.3-6 % median per mode, most where a neck is a few
+#: thicknesses wide; 3-D elasticity is on Mindlin's side on the six random panels solved), and
+#: for half of those 0.005 L thick (the ones with a neck narrower than ~8 t). A uniform strip
+#: 4-6 t wide is not a neck: Kirchhoff is within 0.35 % of Mindlin there. Smooth planforms (the
+#: uniform beam, the square, a trapezoid) reach 1 % on mode 4 at t/L = 0.02, growing like
+#: (t/L)^2: per mode 0.29, 0.99, 2.27, 4.08 % at t/L = 0.0405 (3-D).
+SHEAR_PLATE_THICKNESS = 0.02         # t / L from which every plate answer carries the caveat
+SHEAR_NECKED_THICKNESS = 0.01        # ... from which a panel with a neck (below) does
+SHEAR_PLATE_NECK = 8.0               # ... and a neck narrower than this many t at any thickness
+SHEAR_NECK_RATIO = 0.5               # a neck: narrowest half-width below this x the widest
+SHEAR_SMOOTH_PERCENT = (0.29, 0.99, 2.27, 4.08)    # modes 1-4 at t/L = SHEAR_SMOOTH_AT, 3-D
+SHEAR_SMOOTH_AT = 0.0405
+
+
+def shear_caveat(beam, model: str) -> str | None:
+    """A warning when the thin model ``model`` (``beam``, ``analytic``, ``plate``) is likely more
+    than 1 % above a shear-deformable answer for this panel, None otherwise (and for ``mindlin``,
+    which has the shear). The rule is the measurement above; the text says how much and what to
+    use instead."""
+    tl = float(beam.thickness / beam.length)
+    if model == "plate":
+        w = beam.half_width
+        neck = float(2 * w.min() / beam.thickness)
+        has_neck = bool(w.min() < SHEAR_NECK_RATIO * w.max())
+        if not (tl >= SHEAR_PLATE_THICKNESS
+                or has_neck and (tl >= SHEAR_NECKED_THICKNESS or neck < SHEAR_PLATE_NECK)):
+            return None
+        return (f"the Kirchhoff plate leaves out transverse shear: this panel is {tl:.2g} L "
+                f"thick and its narrowest full width {neck:.2g} times the thickness; on "
+                "measured panels like it the Kirchhoff frequencies were 1-6 % above the "
+                "shear-deformable (Reissner-Mindlin) plate's and 3-D elasticity's "
+                "(docs/truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model mindlin` "
+                "include the shear")
+    if model in ("beam", "analytic"):
+        est = [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
+        if est[-1] <= 1.0:
+            return None
+        return (f"Euler-Bernoulli leaves out shear and rotary inertia: at t/L = {tl:.2g} its "
+                f"modes 1-4 are about {', '.join(f'{e:.2g}' for e in est)} % high (3-D "
+                "elasticity on smooth panels, scaled by (t/L)^2; docs/truth.md)")
+    return None
