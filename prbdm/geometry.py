@@ -302,9 +302,10 @@ MAX_PLATE_THICKNESS_RATIO = 0.5
 #: ``plate``: smallest interior corner of the half planform [degrees]. A sharper corner is the
 #: tip of a tongue (two stations a millimetre apart with a large change of half-width between
 #: them) that the plate mesh can only fill with slivers, whose stiffness matrix is numerically
-#: singular: on random panels with corners below 0.4 degrees the plate's first two frequencies
-#: changed by up to 8x between two mesh densities, with no warning; above 1 degree by at most
-#: 9e-4 (docs/truth.md, "Sharp corners"). Random beams: 2.9 % of the paper's generator (seed 0)
+#: singular: on random panels with corners below 0.61 degrees the plate's first two frequencies
+#: changed by up to a factor 9 between two mesh densities, with no warning; between 1 and 1.2
+#: degrees by at most 1.8e-4 (docs/truth.md, "Sharp corners"). Random beams: 2.9 % of the paper's
+#: generator (seed 0)
 MIN_PLATE_CORNER_DEGREES = 1.0
 #: hard limits, far outside any panel, so that nothing downstream over- or underflows in float64
 #: (L^4 and t^3 appear in the frequency scale): field -> (low, high, unit)
