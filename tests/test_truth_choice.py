@@ -27,10 +27,15 @@ def test_a_2cm_strip_is_a_beam_and_a_wide_panel_a_plate():
     strip = Beam(x=[0, 1], half_width=[0.01, 0.01], thickness=0.005)
     truth, why = choose_truth(strip)
     assert truth == "beam" and "0.02 L" in why
+    thin = Beam(x=[0, 0.5, 1], half_width=[0.3, 0.25, 0.2], thickness=0.005)
+    truth, why = choose_truth(thin)
+    assert truth == "plate" and f"{width_ratio(thin):.3g} L" in why
+    # the paper's panels are thick and necked: the shear-deformable plate
     wide = random_beam(1, 0, min_half_width=0.01)
     truth, why = choose_truth(wide)
-    assert truth == "plate" and f"{width_ratio(wide):.3g} L" in why
+    assert truth == "mindlin" and f"{width_ratio(wide):.3g} L" in why and "Mindlin" in why
     assert choose_truth(wide, "beam") == ("beam", "--truth beam as asked")
+    assert choose_truth(wide, "plate") == ("plate", "--truth plate as asked")
 
 
 def test_live_differences_agree_with_the_choice():
@@ -52,7 +57,7 @@ def test_a_panel_the_plate_cannot_take_is_a_beam_with_the_reason():
     assert truth == "beam" and "thin-plate theory" in why and "0.5 x its full width" in why
     # a plate refusal for another reason (a width varying too much for its mesh) stands
     jagged = Beam(x=[0, 0.5, 1], half_width=[0.4, 2e-5, 0.4], thickness=0.01)
-    assert choose_truth(jagged)[0] == "plate"
+    assert choose_truth(jagged)[0] == "mindlin"          # the plate's mesh and limits
     # a panel neither truth accepts keeps the plate (whose refusal names the limit)
     wide_thick = Beam(x=[0, 1], half_width=[0.2, 0.2], thickness=0.25)
     assert choose_truth(wide_thick)[0] == "plate"

@@ -192,10 +192,13 @@ def network_truth(args, choice) -> str | None:
         return None
     from .. import surrogate
 
+    # no network has learned the Mindlin plate yet: the Kirchhoff plate's is the nearest physics
+    # (the shear caveat says how near)
+    truth = "plate" if choice[0] == "mindlin" else choice[0]
     try:
-        surrogate.default_checkpoint(args.joints, choice[0],
+        surrogate.default_checkpoint(args.joints, truth,
                                      getattr(args, "objective", None) or "eigenvalue")
-        return choice[0]
+        return truth
     except BadInput:           # no default network for that truth: the beam network, warned
         return None
 
@@ -215,17 +218,24 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     model, why = choice
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
+    if model == "mindlin" and sur.truth == "plate":
+        # the warning is the shear caveat of the network's physics (predict_command)
+        return (f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: no network has "
+                "learned the Mindlin plate yet"), None
     if declined == NARROW_PLATE:
         return f"{why}; {narrow_plate_reason(sur)}", None
+    # a Mindlin panel is answered by a (Kirchhoff) plate network when there is one
+    net_model = "plate" if model == "mindlin" else model
+    label = "shear-deformable (mindlin) plate" if model == "mindlin" else model
     missing = declined or (f"--checkpoint {sur.name} was given" if given
-                           else f"no {model} network for {sur.joints} joints is shipped")
+                           else f"no {net_model} network for {sur.joints} joints is shipped")
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {width_ratio(beam):.3g} L wide: its "
-            f"faithful truth is the {model} (`--truth auto`), but {missing}, "
+            f"faithful truth is the {label} (`--truth auto`), but {missing}, "
             f"so this answer follows the {sur.truth} physics (the beam is a median 1-5 % off "
             "the plate on modes 1-4 for panels 0.1-0.5 L wide and 13-50 % at 0.5-1 L, "
             "docs/truth.md); "
-            f"for the {model} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
+            f"for the {label} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
 
 #: ``declined`` when `--truth auto` gives a plate panel narrower than PLATE_NETWORK_MIN_WIDTH to

@@ -1,4 +1,6 @@
-"""``--truth auto``: the Euler-Bernoulli beam for a slender strip, the Kirchhoff plate otherwise.
+"""``--truth auto``: the Euler-Bernoulli beam for a slender strip, the Kirchhoff plate otherwise,
+and the shear-deformable (Reissner-Mindlin) plate for a plate panel thick or necked enough that
+the Kirchhoff plate would be more than 1 % off (:func:`shear_caveat`, measured below).
 
 The rule is read off measured beam-vs-plate differences (``benchmarks/truth_choice.py``, table in
 docs/truth.md, data in docs/truth-choice.json): 220 random planforms of the paper's generator
@@ -19,7 +21,7 @@ from __future__ import annotations
 AUTO_TOLERANCE = 0.01
 #: the widest full-width ratio 2 max(w) / L solved as a beam by ``auto`` (see the module text)
 AUTO_BEAM_MAX_WIDTH = 0.05
-TRUTHS = ("beam", "plate")
+TRUTHS = ("beam", "plate", "mindlin")
 CHOICES = ("auto",) + TRUTHS
 
 
@@ -52,9 +54,19 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
         return "beam", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L, but thicker "
                         f"than {MAX_PLATE_THICKNESS_RATIO:g} x its full width, outside thin-plate "
                         "theory: solved as a beam (docs/truth.md)")
-    return "plate", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would "
-                     f"differ from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 "
-                     "or more this wide (docs/truth.md)")
+    wide = (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would differ "
+            f"from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 or more this "
+            "wide")
+    if shear_caveat(beam, "plate"):
+        # thick or necked: the Kirchhoff plate would be more than the tolerance above the
+        # shear-deformable plate, which 3-D elasticity supports (the measurement below)
+        tl = beam.thickness / beam.length
+        neck = 2 * float(beam.half_width.min()) / beam.thickness
+        return "mindlin", (f"{wide}; t/L = {tl:.2g} with a narrowest full width of {neck:.2g} t: "
+                           f"the Kirchhoff plate would be more than {AUTO_TOLERANCE:.0%} above "
+                           "the shear-deformable (Mindlin) plate, which 3-D elasticity supports "
+                           "(docs/truth.md)")
+    return "plate", f"{wide} (docs/truth.md)"
 
 
 # ------------------------------------------------------------------ what the thin models leave out
