@@ -131,10 +131,15 @@ def _matrices(basis, nu: float, tau: float, kappa: float):
 
 def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str = "section",
                   degree: int = DEFAULT_DEGREE, shear_factor: float = SHEAR_FACTOR,
-                  **mesh_kwargs) -> dict:
+                  refinement_steps: int = 0, **mesh_kwargs) -> dict:
     """The kept symmetric bending modes: ``lam`` (nondimensional, ``omega = omega_p
     sqrt(lam)``), ``participation``, ``entries`` (every computed symmetric mode), ``shapes``
-    and ``mesh``, as :func:`prbdm.truth.plate.solve_plate` returns them."""
+    and ``mesh``, as :func:`prbdm.truth.plate.solve_plate` returns them.
+
+    ``refinement_steps``: iterative refinement of the LU solves inside the Lanczos. None is
+    needed: the eigenvalues are Rayleigh quotients of the unfactored matrices, and one step
+    changed them by at most 5e-8 (t/L 0.001-0.005, benchmarks/bench_mindlin.py) while it made
+    the solve 1.4x slower; the option is kept for that comparison."""
     if degree not in DEGREES:
         raise ValueError(f"degree must be one of {sorted(DEGREES)}, got {degree!r}")
     nu = beam.material.nu
@@ -167,8 +172,9 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU
     d = 1.0 / np.sqrt(Kf.diagonal())
     Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
-    # one refinement step: the shear term (1/tau^2) makes K ill-conditioned for thin panels
-    op = refined_inverse(Kf, steps=1, spd=True)
+    # no refinement of the solves by default (see refinement_steps): Rayleigh quotients of the
+    # unfactored K and M below make the eigenvalues insensitive to the LU's rounding
+    op = refined_inverse(Kf, steps=int(refinement_steps), spd=True)
     n = Kf.shape[0]
     want = int(modes)
     cap = min(n - 2, MAX_MODES_COMPUTED)
