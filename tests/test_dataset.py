@@ -669,3 +669,16 @@ def test_refused_by_truth_flags_records_todays_truth_refuses():
     # the second is a tongue with a 0.24-degree corner: the plate refuses it, the beam does not
     assert refused_by_truth(rows, make_spec(4, truth="plate")).tolist() == [False, True]
     assert refused_by_truth(rows, make_spec(4, truth="beam")).tolist() == [False, False]
+
+
+def test_a_mindlin_truth_only_record_is_below_the_plate_record():
+    """`--truth mindlin` labels with the shear-deformable plate: on a panel of the paper's
+    generator (3 cm thick, a 2 cm neck) its frequencies lie below the Kirchhoff plate's."""
+    from prbdm.dataset import label_beam, make_spec
+    recs = {t: label_beam(1, make_spec(4, truth=t, starts=0, min_half_width=0.01))
+            for t in ("mindlin", "plate")}
+    assert all(r["status"] == "ok" for r in recs.values()), recs
+    m, p = (np.asarray(recs[t]["omega_truth"]) for t in ("mindlin", "plate"))
+    assert m.shape == (5,) and np.all(m[:2] < p[:2])
+    with pytest.raises(BadInput, match="--truth: must be one of beam, plate, mindlin"):
+        make_spec(4, truth="solid")

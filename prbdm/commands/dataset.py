@@ -26,8 +26,9 @@ def add_arguments(parser):
                    help="revolute joints of the PRBDM")
     g.add_argument("--modes", type=positive_int(1), metavar="r",
                    help="truth modes the fit maps (default: n); the truth keeps max(r, n) + 1")
-    g.add_argument("--truth", default="beam", choices=["beam", "plate"],
-                   help="truth model (default beam)")
+    g.add_argument("--truth", default="beam", choices=["beam", "plate", "mindlin"],
+                   help="truth model (default beam; mindlin: the shear-deformable plate, about "
+                        "0.7 s a panel)")
     g.add_argument("--law", default="beam", choices=["beam", "paper"],
                    help="stiffness law (default beam)")
     g.add_argument("--poses", default="paper", metavar="paper|linear|t1,t2,...",

@@ -17,7 +17,7 @@ MANIFEST = "_manifest.json"
 FORMAT = "prbdm-dataset"
 FORMAT_VERSION = 1
 
-TRUTH_MODELS = ("beam", "plate")
+TRUTH_MODELS = ("beam", "plate", "mindlin")
 LAWS = ("beam", "paper")
 #: what the fit minimises (prbdm.constants.OBJECTIVES); a spec without ``objective`` (made
 #: before the choice existed) is ``eigenvalue``, the only objective there was
