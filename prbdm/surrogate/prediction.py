@@ -218,8 +218,9 @@ class Surrogate:
                 f"(p95 {acc['loss_p95_percent']:.3g} %) and its truth frequencies a median "
                 f"[{modes}] % off (modes 1-{self.modes}; limits "
                 f"{ACCURACY_WARN_LOSS_PERCENT:g} % / {ACCURACY_WARN_FREQ_PERCENT:g} %); "
-                f"for a faithful model use `prbdm fit BEAM --joints {self.joints} "
-                f"--truth {self.truth}`")
+                f"for a faithful model use `prbdm fit BEAM --joints {self.joints}` (its "
+                f"`--truth auto` takes the truth the panel needs; `--truth {self.truth}` is "
+                "this network's)")
 
     # ---------------------------------------------------------------- the network in NumPy
     def features(self, beams) -> np.ndarray:
