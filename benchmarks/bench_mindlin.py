@@ -1,6 +1,7 @@
 """Speed and accuracy of the Mindlin plate truth, setting against setting, on the same panels.
 
     python benchmarks/bench_mindlin.py --panels 10
+    python benchmarks/bench_mindlin.py --thin
 
 ``--panels`` random panels of the plate data sets' generator (``random_beam(11, i,
 min_half_width=0.01)``, the first ones the plate accepts) and four of them made 5 mm thick, each
@@ -28,10 +29,29 @@ SETTINGS = [("default (P4, elements 12, no refinement)", {}),
             ("reference: elements 24", {"elements": 24})]
 
 
+def thin():
+    from prbdm.geometry import Beam, random_beam
+    from prbdm.truth.mindlin import solve_mindlin
+
+    warnings.simplefilter("ignore")
+    cases = [("square", Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.001)),
+             ("Table-2 beam", Beam(x=[0, 1], half_width=[0.1812, 0.1812], thickness=0.001)),
+             ("random_beam(11, 1)", dataclasses.replace(random_beam(11, 1, min_half_width=0.01),
+                                                         thickness=0.001))]
+    print("t/L = 0.001: frequencies without refinement / with one step - 1, modes 1-4")
+    for name, b in cases:
+        om = [np.sqrt(solve_mindlin(b, 5, refinement_steps=s)["lam"][:4]) for s in (0, 1)]
+        print(f"  {name:20s} " + " ".join(f"{v:+.1e}" for v in om[0] / om[1] - 1))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--panels", type=int, default=10)
+    ap.add_argument("--thin", action="store_true", help="only the thin check: t/L = 0.001, no "
+                    "refinement against one step (the default below t/L = 0.001 is one step)")
     a = ap.parse_args(argv)
+    if a.thin:
+        return thin()
 
     from prbdm.errors import BadInput
     from prbdm.geometry import check_beam, random_beam

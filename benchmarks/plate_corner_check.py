@@ -88,7 +88,7 @@ def main(argv=None) -> dict:
     for i, e in errors.items():
         print(f"panel {i}: {e}")
     failing = [corner[i] for i in sharp if diff[i] is not None and diff[i] > 1e-3]
-    print(f"sharpest corner that failed (> 1e-3): {max(failing):.3f} degrees; the plate refuses "
+    print(f"bluntest corner that failed (> 1e-3): {max(failing):.3f} degrees; the plate refuses "
           f"corners below {MIN_PLATE_CORNER_DEGREES:g} degrees" if failing else
           "no panel differed by more than 1e-3")
     out = {"seed": a.seed, "panels": a.panels, "below": a.below, "solved": len(sharp),

@@ -620,3 +620,17 @@ def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case, tiny_set):
         lines = err.strip("\n").split("\n")
         assert lines[-1].startswith("prbdm predict: error: "), err
         assert all(line.startswith("prbdm predict: warning: ") for line in lines[:-1]), err
+
+
+@pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
+                    reason="no shipped plate network")
+def test_a_narrow_mindlin_panel_answered_by_the_beam_network_carries_the_shear_caveat(capsys,
+                                                                                      beam_file):
+    """0.08 L wide with a neck, t/L = 0.012: `auto` wants the Mindlin plate, the beam network
+    answers on purpose (narrow plate panel), and the answer says that the shear is missing."""
+    panel = beam_file({"x": [0, 0.5, 0.55, 1], "half_width": [0.04, 0.04, 0.015, 0.04],
+                       "thickness": 0.012})
+    rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--json")
+    o = json.loads(out)
+    assert rc == 0 and o["truth"] == "beam" and "Mindlin" in o["truth_reason"]
+    assert any("leaves out transverse shear" in w for w in o["warnings"])

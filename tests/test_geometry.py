@@ -314,8 +314,13 @@ def test_plate_refuses_sharp_corners_and_the_beam_does_not():
             check_beam(tongue, model)
     check_beam(tongue, "beam")
     check_beam(tongue)
-    # just above the limit: accepted
-    dx = 0.38 * math.tan(math.radians(1.01 * MIN_PLATE_CORNER_DEGREES))
-    ok = Beam(x=[0, 1 - dx, 1], half_width=[0.2, 0.11, 0.49], thickness=0.02)
-    assert smallest_corner(ok)[0] > MIN_PLATE_CORNER_DEGREES
-    check_beam(ok, "plate")
+    # just above the limit: accepted; just below: refused
+    for factor, accepted in ((1.01, True), (0.99, False)):
+        dx = 0.38 * math.tan(math.radians(factor * MIN_PLATE_CORNER_DEGREES))
+        b = Beam(x=[0, 1 - dx, 1], half_width=[0.2, 0.11, 0.49], thickness=0.02)
+        assert (smallest_corner(b)[0] > MIN_PLATE_CORNER_DEGREES) == accepted
+        if accepted:
+            check_beam(b, "plate")
+        else:
+            with pytest.raises(BadInput, match="at least 1 degrees"):
+                check_beam(b, "plate")

@@ -309,6 +309,10 @@ def predict_command(args) -> int:
                                                       args.checkpoint is not None)
     from ..truth.choice import shear_caveat
     caveat = shear_caveat(beam, sur.truth)           # the physics the network learned
+    if caveat is None and choice is not None and choice[0] == "mindlin" and args.truth is None:
+        # `--truth auto` wants the shear here; no network has it (a narrow panel's beam network
+        # included, whose own caveat starts only at t/L ~ 0.02)
+        caveat = shear_caveat(beam, "plate")
     if caveat:
         out["warnings"].append(caveat)
     if wrong_physics:

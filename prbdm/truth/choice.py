@@ -100,12 +100,17 @@ def shear_caveat(beam, model: str) -> str | None:
         if not (tl >= SHEAR_PLATE_THICKNESS
                 or has_neck and (tl >= SHEAR_NECKED_THICKNESS or neck < SHEAR_PLATE_NECK)):
             return None
+        remedy = ("(docs/truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model "
+                  "mindlin` include the shear")
+        if not has_neck:
+            est = [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
+            return (f"the Kirchhoff plate leaves out transverse shear and rotary inertia: at t/L "
+                    f"= {tl:.2g} its modes 1-4 are about {', '.join(f'{e:.2g}' for e in est)} % "
+                    f"high (3-D elasticity on smooth panels, scaled by (t/L)^2) {remedy}")
         return (f"the Kirchhoff plate leaves out transverse shear: this panel is {tl:.2g} L "
                 f"thick and its narrowest full width {neck:.2g} times the thickness; on "
                 "measured panels like it the Kirchhoff frequencies were 1-6 % above the "
-                "shear-deformable (Reissner-Mindlin) plate's and 3-D elasticity's "
-                "(docs/truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model mindlin` "
-                "include the shear")
+                f"shear-deformable (Reissner-Mindlin) plate's and 3-D elasticity's {remedy}")
     if model in ("beam", "analytic"):
         est = [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
         if est[-1] <= 1.0:

@@ -60,6 +60,8 @@ __all__ = ["solve_mindlin", "shear_stiffness", "SHEAR_FACTOR", "DEFAULT_DEGREE",
 
 #: Reissner's / Mindlin's shear correction factor for a homogeneous plate
 SHEAR_FACTOR = 5.0 / 6.0
+#: t / L from which the Lanczos's LU solves go without iterative refinement (solve_mindlin)
+NO_REFINEMENT_FROM = 1e-3
 #: polynomial degree of the Lagrange triangles (w, beta_x, beta_y)
 DEFAULT_DEGREE = 4
 DEGREES = {2: ElementTriP2, 3: ElementTriP3, 4: ElementTriP4}
@@ -131,15 +133,16 @@ def _matrices(basis, nu: float, tau: float, kappa: float):
 
 def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str = "section",
                   degree: int = DEFAULT_DEGREE, shear_factor: float = SHEAR_FACTOR,
-                  refinement_steps: int = 0, **mesh_kwargs) -> dict:
+                  refinement_steps: int | None = None, **mesh_kwargs) -> dict:
     """The kept symmetric bending modes: ``lam`` (nondimensional, ``omega = omega_p
     sqrt(lam)``), ``participation``, ``entries`` (every computed symmetric mode), ``shapes``
     and ``mesh``, as :func:`prbdm.truth.plate.solve_plate` returns them.
 
-    ``refinement_steps``: iterative refinement of the LU solves inside the Lanczos. None is
-    needed: the eigenvalues are Rayleigh quotients of the unfactored matrices, and one step
-    changed them by at most 5e-8 (t/L 0.001-0.005, benchmarks/bench_mindlin.py) while it made
-    the solve 1.4x slower; the option is kept for that comparison."""
+    ``refinement_steps``: iterative refinement of the LU solves inside the Lanczos; None: none
+    from t/L = ``NO_REFINEMENT_FROM`` up, one below. The eigenvalues are Rayleigh quotients of the
+    unfactored matrices, and one step changed them by at most 5e-8 at t/L = 0.001 and 5e-9 on
+    the paper's panels while making the solve 1.33x slower (benchmarks/bench_mindlin.py); below
+    t/L = 0.001 (the shear term ~ (L/t)^2 conditions K ever worse) it is kept, unmeasured."""
     if degree not in DEGREES:
         raise ValueError(f"degree must be one of {sorted(DEGREES)}, got {degree!r}")
     nu = beam.material.nu
@@ -174,6 +177,8 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
     # no refinement of the solves by default (see refinement_steps): Rayleigh quotients of the
     # unfactored K and M below make the eigenvalues insensitive to the LU's rounding
+    if refinement_steps is None:
+        refinement_steps = 0 if tau >= NO_REFINEMENT_FROM else 1
     op = refined_inverse(Kf, steps=int(refinement_steps), spd=True)
     n = Kf.shape[0]
     want = int(modes)
