@@ -435,6 +435,15 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     inside = beam_file(random_beam(3, 0).to_dict())       # one of its own training panels
     rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("plate-n2.safetensors")
+    # that panel's faithful truth is the Mindlin plate: a Mindlin network, when there is one,
+    # comes before the (Kirchhoff) plate network
+    from prbdm.truth.choice import choose_truth
+    assert choose_truth(random_beam(3, 0))[0] == "mindlin"
+    shutil.copy(tiny_checkpoint(tiny_set), folder / "mindlin-n2.safetensors")
+    shutil.copy(tiny_checkpoint(tiny_set).with_suffix(".json"), folder / "mindlin-n2.json")
+    rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
+    assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("mindlin-n2.safetensors")
+    (folder / "mindlin-n2.safetensors").unlink()
     # outside its range, `--truth auto` does not give the panel to it (answer_or_fall_back)
     taper = beam_file({"x": [0, 1], "half_width": [0.45, 0.02], "thickness": 0.01})
     rc, out, err = run(capsys, "predict", taper, "--joints", 2, "--json")

@@ -63,3 +63,19 @@ def test_the_load_spread_chain_is_closer_to_the_plate_than_the_beam_chain():
     spread_chain = plate - f[:, spec.base_columns(2)]
     assert (spread_chain.std(0) < 0.7 * beam_chain.std(0)).all(), (spread_chain.std(0),
                                                                    beam_chain.std(0))
+
+
+def test_mindlin_features_add_the_thickness():
+    """The shear-deformable plate's frequencies depend on t / L (the Kirchhoff plate's do not):
+    a `mindlin` spec adds log_thickness after the plate's features, and only it moves with t."""
+    import dataclasses
+    spec = sg.FeatureSpec(truth="mindlin", spread=True)
+    plate = sg.FeatureSpec(truth="plate", spread=True)
+    names = sg.feature_names(spec)
+    assert names[-3:] == ["log_aspect", "nu", "log_thickness"]
+    assert names[:-1] == sg.feature_names(plate)
+    b = random_beam(0, 3, min_half_width=0.01)
+    thin = dataclasses.replace(b, thickness=b.thickness / 4)
+    f = sg.features(sg.BeamBatch.from_beams([b, thin]), spec)
+    assert np.allclose(f[:, -1], np.log([b.thickness, thin.thickness]))
+    assert np.allclose(f[0, :-1], f[1, :-1])

@@ -570,7 +570,9 @@ meta = {
                  "invariances": "beam truth + beam law: gamma, k and omega / sqrt(E t^2 / (rho "
                                 "L^4)) depend only on w(x)/max(w) on x/L; features use only "
                                 "that shape" + ("; plate adds log_aspect and nu"
-                                                if spec["truth"] == "plate" else "")
+                                                if spec["truth"] in ("plate", "mindlin") else "")
+                                + ("; mindlin adds log_thickness (t/L: the shear)"
+                                   if spec["truth"] == "mindlin" else "")
                                 + ("; spread adds log_omega_spread, which depends on w/L "
                                    "itself (the load spread's 45 degrees)" if spread else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},

@@ -192,15 +192,16 @@ def network_truth(args, choice) -> str | None:
         return None
     from .. import surrogate
 
-    # no network has learned the Mindlin plate yet: the Kirchhoff plate's is the nearest physics
-    # (the shear caveat says how near)
-    truth = "plate" if choice[0] == "mindlin" else choice[0]
-    try:
-        surrogate.default_checkpoint(args.joints, truth,
-                                     getattr(args, "objective", None) or "eigenvalue")
-        return truth
-    except BadInput:           # no default network for that truth: the beam network, warned
-        return None
+    # a Mindlin panel: a Mindlin network when one is found, else the Kirchhoff plate's, the
+    # nearest physics (the shear caveat says how near)
+    for truth in (("mindlin", "plate") if choice[0] == "mindlin" else (choice[0],)):
+        try:
+            surrogate.default_checkpoint(args.joints, truth,
+                                         getattr(args, "objective", None) or "eigenvalue")
+            return truth
+        except BadInput:
+            continue
+    return None                # no default network for that truth: the beam network, warned
 
 
 def truth_reason(beam, sur, asked, choice, declined=None,
@@ -268,7 +269,7 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     from ..geometry import check_beam
     from ..truth.choice import width_ratio
 
-    if chosen == "plate" and width_ratio(beam) <= PLATE_NETWORK_MIN_WIDTH:
+    if chosen in ("plate", "mindlin") and width_ratio(beam) <= PLATE_NETWORK_MIN_WIDTH:
         # the plate is this panel's truth, but the beam network was measured closer to it
         beam_net = load_surrogate(args, "beam")
         check_beam(beam, beam_net.truth)

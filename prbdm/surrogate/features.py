@@ -15,7 +15,9 @@ changes nothing), so the features are built from that shape alone:
 
 The plate truth also depends on the absolute aspect ratio and Poisson's ratio: its features add
 ``log_aspect = log(2 max(w) / L)`` and ``nu``. (The Kirchhoff plate's frequencies scale with ``t``
-exactly, so ``t / L`` does not enter either.)
+exactly, so ``t / L`` does not enter either.) The shear-deformable ``mindlin`` truth's do not: its
+features add ``log_thickness = log(t / L)`` as well (the shear grows like (t / L)^2 and with the
+narrowest neck over the thickness, which the width features and this one give together).
 
 ``spread`` (plate networks): ``log_omega_spread[r]``, the same chain with the bending stiffness of
 the *load-spread* half-width ``w_s(x) = min_x' (w(x') + |x - x'|)`` (x, w in units of L) and the
@@ -172,8 +174,10 @@ def feature_names(spec: FeatureSpec) -> list[str]:
     names += [f"log_omega_rfe[{r}]" for r in range(spec.rfe_modes)]
     if spec.spread:
         names += [f"log_omega_spread[{r}]" for r in range(spec.rfe_modes)]
-    if spec.truth == "plate":
+    if spec.truth in ("plate", "mindlin"):
         names += ["log_aspect", "nu"]
+    if spec.truth == "mindlin":
+        names += ["log_thickness"]
     return names
 
 
@@ -203,7 +207,9 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec()) -> np.ndarray:
         cols.append(rfe_log_omega(BeamBatch(batch.x, wn, batch.length, batch.thickness, batch.E,
                                             batch.rho, batch.nu), spec.rfe_segments,
                                   spec.rfe_modes, spec.rfe_coarse, (xs, ws / wmax[:, None])))
-    if spec.truth == "plate":
+    if spec.truth in ("plate", "mindlin"):
         cols += [np.log(2 * wmax)[:, None], batch.nu[:, None]]
+    if spec.truth == "mindlin":
+        cols.append(np.log(batch.thickness / batch.length)[:, None])
     return np.concatenate(cols, axis=1)
 
