@@ -444,6 +444,12 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("mindlin-n2.safetensors")
     (folder / "mindlin-n2.safetensors").unlink()
+    # a network that has learned the Mindlin plate carries no shear caveat (the stand-in above
+    # says beam in its metadata, so the rule is checked directly)
+    from prbdm.commands.predict import answer_caveat
+    choice = choose_truth(random_beam(3, 0))
+    assert answer_caveat(random_beam(3, 0), "mindlin", choice, None) is None
+    assert "leaves out transverse shear" in answer_caveat(random_beam(3, 0), "plate", choice, None)
     # outside its range, `--truth auto` does not give the panel to it (answer_or_fall_back)
     taper = beam_file({"x": [0, 1], "half_width": [0.45, 0.02], "thickness": 0.01})
     rc, out, err = run(capsys, "predict", taper, "--joints", 2, "--json")

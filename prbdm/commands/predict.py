@@ -204,6 +204,20 @@ def network_truth(args, choice) -> str | None:
     return None                # no default network for that truth: the beam network, warned
 
 
+def answer_caveat(beam, network_truth: str, choice, asked) -> str | None:
+    """The shear caveat of an answer that follows ``network_truth`` (the physics its network
+    learned): that truth's own (:func:`prbdm.truth.choice.shear_caveat`), or, when `--truth auto`
+    (``asked`` None) chose the Mindlin plate and the network has not learned it, the plate's (a
+    narrow panel's beam network included, whose own caveat starts only at t/L ~ 0.02)."""
+    from ..truth.choice import shear_caveat
+
+    caveat = shear_caveat(beam, network_truth)
+    if (caveat is None and network_truth != "mindlin" and asked is None and choice is not None
+            and choice[0] == "mindlin"):
+        caveat = shear_caveat(beam, "plate")
+    return caveat
+
+
 def truth_reason(beam, sur, asked, choice, declined=None,
                  given=False) -> tuple[str, str | None]:
     """Why the prediction follows its checkpoint's truth, and a warning when ``--truth auto``
@@ -308,12 +322,7 @@ def predict_command(args) -> int:
     out["input"] = info
     out["truth_reason"], wrong_physics = truth_reason(beam, sur, args.truth, choice, declined,
                                                       args.checkpoint is not None)
-    from ..truth.choice import shear_caveat
-    caveat = shear_caveat(beam, sur.truth)           # the physics the network learned
-    if caveat is None and choice is not None and choice[0] == "mindlin" and args.truth is None:
-        # `--truth auto` wants the shear here; no network has it (a narrow panel's beam network
-        # included, whose own caveat starts only at t/L ~ 0.02)
-        caveat = shear_caveat(beam, "plate")
+    caveat = answer_caveat(beam, sur.truth, choice, args.truth)
     if caveat:
         out["warnings"].append(caveat)
     if wrong_physics:
