@@ -122,7 +122,9 @@ def run(args) -> int:
     truth = bending_frequencies(beam, model=model, modes=max(R, n))
     omega_t = np.asarray(truth.omega, dtype=np.float64)
     from ..truth.choice import shear_caveat
-    notes += [c for c in (shear_caveat(beam, truth.model),) if c]
+    caveat = shear_caveat(beam, truth.model)
+    if caveat:
+        notes.append(caveat)
 
     import torch
 

@@ -192,9 +192,7 @@ def network_truth(args, choice) -> str | None:
         return None
     from .. import surrogate
 
-    # a Mindlin panel: a Mindlin network when one is found, else the Kirchhoff plate's, the
-    # nearest physics (the shear caveat says how near)
-    for truth in (("mindlin", "plate") if choice[0] == "mindlin" else (choice[0],)):
+    for truth in network_truths(choice[0]):
         try:
             surrogate.default_checkpoint(args.joints, truth,
                                          getattr(args, "objective", None) or "eigenvalue")
@@ -202,6 +200,13 @@ def network_truth(args, choice) -> str | None:
         except BadInput:
             continue
     return None                # no default network for that truth: the beam network, warned
+
+
+def network_truths(model: str) -> tuple[str, ...]:
+    """The networks that may answer a panel of truth ``model``, in order: a Mindlin panel a
+    Mindlin network when one is found, else the Kirchhoff plate's, the nearest physics (the shear
+    caveat says how near)."""
+    return ("mindlin", "plate") if model == "mindlin" else (model,)
 
 
 def answer_caveat(beam, network_truth: str, choice, asked) -> str | None:
@@ -239,8 +244,7 @@ def truth_reason(beam, sur, asked, choice, declined=None,
                 "learned the Mindlin plate yet"), None
     if declined == NARROW_PLATE:
         return f"{why}; {narrow_plate_reason(sur)}", None
-    # a Mindlin panel is answered by a (Kirchhoff) plate network when there is one
-    net_model = "plate" if model == "mindlin" else model
+    net_model = network_truths(model)[-1]
     label = "shear-deformable (mindlin) plate" if model == "mindlin" else model
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {net_model} network for {sur.joints} joints is shipped")

@@ -60,8 +60,7 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
     if shear_caveat(beam, "plate"):
         # thick or necked: the Kirchhoff plate would be more than the tolerance above the
         # shear-deformable plate, which 3-D elasticity supports (the measurement below)
-        tl = beam.thickness / beam.length
-        neck = 2 * float(beam.half_width.min()) / beam.thickness
+        tl, neck, _ = _shear_inputs(beam)
         return "mindlin", (f"{wide}; t/L = {tl:.2g} with a narrowest full width of {neck:.2g} t: "
                            f"the Kirchhoff plate would be more than {AUTO_TOLERANCE:.0%} above "
                            "the shear-deformable (Mindlin) plate, which 3-D elasticity supports "
@@ -87,23 +86,32 @@ SHEAR_SMOOTH_PERCENT = (0.29, 0.99, 2.27, 4.08)    # modes 1-4 at t/L = SHEAR_SM
 SHEAR_SMOOTH_AT = 0.0405
 
 
+def _shear_inputs(beam) -> tuple[float, float, bool]:
+    """t / L, the narrowest full width in thicknesses, and whether that is a neck."""
+    w = beam.half_width
+    return (float(beam.thickness / beam.length), float(2 * w.min() / beam.thickness),
+            bool(w.min() < SHEAR_NECK_RATIO * w.max()))
+
+
+def _smooth_estimate(tl: float) -> list[float]:
+    """Per-mode shear excess [%] of a thin model on a smooth panel at t / L = ``tl``."""
+    return [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
+
+
 def shear_caveat(beam, model: str) -> str | None:
     """A warning when the thin model ``model`` (``beam``, ``analytic``, ``plate``) is likely more
     than 1 % above a shear-deformable answer for this panel, None otherwise (and for ``mindlin``,
     which has the shear). The rule is the measurement above; the text says how much and what to
     use instead."""
-    tl = float(beam.thickness / beam.length)
+    tl, neck, has_neck = _shear_inputs(beam)
     if model == "plate":
-        w = beam.half_width
-        neck = float(2 * w.min() / beam.thickness)
-        has_neck = bool(w.min() < SHEAR_NECK_RATIO * w.max())
         if not (tl >= SHEAR_PLATE_THICKNESS
                 or has_neck and (tl >= SHEAR_NECKED_THICKNESS or neck < SHEAR_PLATE_NECK)):
             return None
         remedy = ("(docs/truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model "
                   "mindlin` include the shear")
         if not has_neck:
-            est = [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
+            est = _smooth_estimate(tl)
             return (f"the Kirchhoff plate leaves out transverse shear and rotary inertia: at t/L "
                     f"= {tl:.2g} its modes 1-4 are about {', '.join(f'{e:.2g}' for e in est)} % "
                     f"high (3-D elasticity on smooth panels, scaled by (t/L)^2) {remedy}")
@@ -112,7 +120,7 @@ def shear_caveat(beam, model: str) -> str | None:
                 "measured panels like it the Kirchhoff frequencies were 1-6 % above the "
                 f"shear-deformable (Reissner-Mindlin) plate's and 3-D elasticity's {remedy}")
     if model in ("beam", "analytic"):
-        est = [p * (tl / SHEAR_SMOOTH_AT) ** 2 for p in SHEAR_SMOOTH_PERCENT]
+        est = _smooth_estimate(tl)
         if est[-1] <= 1.0:
             return None
         return (f"Euler-Bernoulli leaves out shear and rotary inertia: at t/L = {tl:.2g} its "
