@@ -443,6 +443,16 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     shutil.copy(tiny_checkpoint(tiny_set).with_suffix(".json"), folder / "mindlin-n2.json")
     rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("mindlin-n2.safetensors")
+    # a Mindlin network that cannot answer the panel (here: a training range that excludes it)
+    # hands it to the Kirchhoff plate's, the nearer physics, before the beam's
+    from prbdm import surrogate as sg
+    weights, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    meta["features"]["max"] = [lo + 1e-3 for lo in meta["features"]["min"]]
+    sg.save_checkpoint(folder / "mindlin-n2.safetensors", weights, meta)
+    rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
+    r = json.loads(out)
+    assert rc == 0 and r["checkpoint"]["path"].endswith("plate-n2.safetensors"), err
+    assert "mindlin-n2.safetensors cannot answer this panel" in err, err
     (folder / "mindlin-n2.safetensors").unlink()
     # a network that has learned the Mindlin plate carries no shear caveat (the stand-in above
     # says beam in its metadata, so the rule is checked directly)

@@ -284,3 +284,38 @@ def test_tiny_training_run(tmp_path, tiny_data, objective):
     recorded = meta["training"]["comparison"]["physics"]["val"]["loss_mean"]
     # float32 network weights: the NumPy path agrees with training's torch path to ~1e-6
     assert float(measure.mean()) == pytest.approx(recorded, rel=1e-3)
+
+
+def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
+    """--init_from (fine-tuning): the run starts from the checkpoint's weights and
+    normalisation, so that with a vanishing learning rate it predicts what the start did, on
+    another truth's panels too (the features it lacks start at zero weight); a start whose
+    network differs is refused with one line, before anything is written."""
+    start = tmp_path / "start.safetensors"
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", start, "--device", "cpu",
+                 *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    plate = tmp_path / "plate"
+    D.generate(plate, 20, D.make_spec(joints=2, starts=0, seed=7, truth="plate",
+                                      max_half_width=[0.05, 0.2]), workers=0, progress="none")
+    tuned = tmp_path / "tuned.safetensors"
+    run = script("train_surrogate.py", "--data", plate, "--out", tuned, "--device", "cpu",
+                 "--init_from", start, "--lr", "1e-12", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    a, b = sg.load_checkpoint(start), sg.load_checkpoint(tuned)
+    assert b.truth == "plate" and {"log_aspect", "nu"} <= set(b.metadata["features"]["names"])
+    record = b.metadata["training"]["init_from"]
+    assert record["name"] == "start" and record["truth"] == "beam" and len(record["sha256"]) == 64
+    beams = [D.beam_for(D.read_manifest(plate)["spec"], i) for i in range(3)]
+    pa = a.predict(sg.BeamBatch.from_beams(beams), warn=False)
+    pb = b.predict(sg.BeamBatch.from_beams(beams), warn=False)
+    np.testing.assert_allclose(pb.gamma, pa.gamma, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(pb.omega, pa.omega, rtol=1e-4)
+    before = listing(tmp_path)
+    run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
+                 "--init_from", start, *TINY_NET, "--width", "32", cwd=tmp_path)
+    _one_line_exit_2(run, "--init_from", "width = 16", "32")
+    run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
+                 "--init_from", tmp_path / "none.safetensors", *TINY_NET, cwd=tmp_path)
+    _one_line_exit_2(run, "--init_from", "none.safetensors")
+    assert listing(tmp_path) == before

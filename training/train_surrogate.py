@@ -104,6 +104,10 @@ SETTINGS = {
     "rfe_coarse": S(16, "> 0: that estimate by Rayleigh-Ritz from a chain of this many links"),
     "spread": S(False, "add the same estimate with the 45-degree load-spread width's stiffness "
                 "(log_omega_spread, prbdm.surrogate.features) and correct that one: for plates"),
+    "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
+                       "mod M; its network and feature settings must be these; the features it "
+                       "lacks start with zero weight, and its normalisation is kept, so that "
+                       "the start predicts exactly what it did"),
     "threads": S(1, "torch threads"),
     "quiet": S(False, "only the summary lines"),
 }
@@ -153,6 +157,7 @@ from prbdm import dataset as ds  # noqa: E402
 from prbdm import model  # noqa: E402
 from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
 from prbdm.dataset.schema import flatten  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
@@ -244,6 +249,27 @@ if init_gamma:
         _fail(f"--init_gamma: need {n + 1} comma-separated values > {sg.GAMMA_MIN}, got "
               f"{init_gamma!r}")
 
+# a start checkpoint (fine-tuning, e.g. the Kirchhoff plate's network on Mindlin labels): its
+# network and feature settings must be these, so that its weights mean the same here
+init_weights, init_meta = None, None
+if init_from:
+    try:
+        init_weights, init_meta = sg.read_checkpoint(init_from)
+    except BadInput as exc:
+        _fail(f"--init_from: {exc}")
+    _net, _fs = init_meta["network"], init_meta["features"]["spec"]
+    _need = {"joints": (init_meta["joints"], n), "width": (_net["width"], width),
+             "depth": (_net["depth"], depth), "k_mode": (_net["k_mode"], k_mode),
+             "hypotheses": (_net["hypotheses"], hypotheses),
+             "poses": (len(init_meta["poses"]), len(model.make_poses(spec["poses"], n))),
+             "truth_modes": (init_meta["truth_modes"], min(spec["truth_modes"], rfe_segments - 1)),
+             **{k: (_fs.get(k, False), globals()[k]) for k in ("cells", "rfe_segments",
+                                                              "rfe_coarse", "spread")}}
+    for _k, (_have, _want) in _need.items():
+        if _have != _want:
+            _fail(f"--init_from: {init_from} has {_k} = {_have!r}, this run {_want!r}; a start "
+                  f"checkpoint must have this run's network and feature settings")
+
 # ------------------------------------------------------------------------------- log
 out_path.parent.mkdir(parents=True, exist_ok=True)
 log_path = out_path.with_suffix(".log")
@@ -316,6 +342,22 @@ norm_np = {"feature_mean": f_mean, "feature_std": f_std,
            "logk_mean": y_logk[tr].mean(0), "logk_std": np.maximum(y_logk[tr].std(0), 1e-6),
            "freq_mean": y_corr[tr].mean(0), "freq_std": np.maximum(y_corr[tr].std(0), 1e-6),
            "gamma_mean": y_gamma[tr].mean(0), "gamma_std": np.maximum(y_gamma[tr].std(0), 1e-6)}
+if init_meta is not None:
+    # the start's own normalisation, so that its weights predict what they did: its outputs'
+    # and its features' (by name); a feature it lacks keeps this set's (its weights start at 0)
+    _old = init_meta["normalisation"]
+    for _k in ("logk_mean", "logk_std", "freq_mean", "freq_std", "gamma_mean", "gamma_std"):
+        norm_np[_k] = np.asarray(_old[_k], dtype=np.float64)
+    _old_names = init_meta["features"]["names"]
+    for _j, _name in enumerate(names):
+        if _name in _old_names:
+            _i = _old_names.index(_name)
+            norm_np["feature_mean"][_j] = _old["feature_mean"][_i]
+            norm_np["feature_std"][_j] = _old["feature_std"][_i]
+    f_mean, f_std = norm_np["feature_mean"], norm_np["feature_std"]
+    log(f"start: {_cli.portable_path(init_from)} ({init_meta.get('name')}, truth "
+        f"{init_meta['truth']}); features new to it, starting at zero weight: "
+        f"{', '.join(n_ for n_ in names if n_ not in _old_names) or 'none'}")
 # the training data lives on the training device (every row of it, once)
 norm = {k: torch.as_tensor(v, dtype=torch.float32, device=dev) for k, v in norm_np.items()}
 
@@ -412,9 +454,25 @@ def evaluate(net, rows):
 Net = SurrogateNet
 
 
+def start_weights(member):
+    """The start checkpoint's weights for ``member`` (its member ``member`` mod M), its first
+    layer's columns placed by feature name: a feature it lacks gets zero weight."""
+    prefixes = member_prefixes(int(init_meta["network"].get("members", 1)))
+    pre = prefixes[member % len(prefixes)]
+    w = {k[len(pre):]: v for k, v in init_weights.items() if k.startswith(pre)}
+    old_names = init_meta["features"]["names"]
+    first = np.zeros((w["layers.0.weight"].shape[0], len(names)), dtype=np.float32)
+    for j, name in enumerate(names):
+        if name in old_names:
+            first[:, j] = w["layers.0.weight"][:, old_names.index(name)]
+    return {**w, "layers.0.weight": first}
+
+
 def make_net(member=0):
     net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
               hypotheses=hypotheses)
+    if init_meta is not None:
+        return net.load_weights(start_weights(member)).to(dev)
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
@@ -550,7 +608,7 @@ train_time = time.perf_counter() - t_start
 # ------------------------------------------------------------------------------- 4. checkpoint
 # no machine paths in the metadata: paths inside the repository are recorded relative to it
 recorded_config = {**config, "device": device,
-                   **{k: _cli.portable_path(config[k]) for k in ("data", "out", "config")
+                   **{k: _cli.portable_path(config[k]) for k in ("data", "out", "config", "init_from")
                       if config[k]}}
 versions = ds._versions()
 try:
@@ -596,7 +654,13 @@ meta = {
                            "members": [seed + j for j in range(members)]},
                  "selected_mode": selected,
                  "selection": f"lowest {select} validation {objective} objective",
-                 "comparison": results, "time_s": train_time, "torch_threads": threads,
+                 "comparison": results, "time_s": train_time,
+                 **({"init_from": {"path": _cli.portable_path(init_from),
+                                   "name": init_meta.get("name"), "truth": init_meta["truth"],
+                                   "sha256": hashlib.sha256(Path(init_from).read_bytes()
+                                                            ).hexdigest(),
+                                   "git_commit": init_meta.get("git_commit")}}
+                    if init_meta is not None else {}), "torch_threads": threads,
                  "device": str(dev)},
     "versions": versions, "git_commit": ds._git_commit(),
 }

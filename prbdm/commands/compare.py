@@ -107,7 +107,7 @@ def run(args) -> int:
     sur, (pred, t_net), declined = answer_or_fall_back(args, sur, chosen, network_prediction,
                                                        beam)
     if declined and declined != NARROW_PLATE:
-        notes.append(f"{declined}; the beam network is measured instead")
+        notes.append(f"{declined}; {sur.name} is measured instead")
     if declined == NARROW_PLATE:          # the reason, as predict's truth_reason (no warning)
         reason += f"; {narrow_plate_reason(sur)}"
     n, r = sur.joints, sur.modes

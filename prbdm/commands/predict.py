@@ -190,15 +190,9 @@ def network_truth(args, choice) -> str | None:
     from :func:`truth_reason`)."""
     if args.checkpoint is not None or choice is None or choice[0] == "beam":
         return None
-    from .. import surrogate
-
     for truth in network_truths(choice[0]):
-        try:
-            surrogate.default_checkpoint(args.joints, truth,
-                                         getattr(args, "objective", None) or "eigenvalue")
+        if has_network(args, truth):
             return truth
-        except BadInput:
-            continue
     return None                # no default network for that truth: the beam network, warned
 
 
@@ -240,8 +234,8 @@ def truth_reason(beam, sur, asked, choice, declined=None,
         return f"{why}; checkpoint {sur.name}", None
     if model == "mindlin" and sur.truth == "plate":
         # the warning is the shear caveat of the network's physics (predict_command)
-        return (f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: no network has "
-                "learned the Mindlin plate yet"), None
+        missing = declined or "no network has learned the Mindlin plate yet"
+        return f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: {missing}", None
     if declined == NARROW_PLATE:
         return f"{why}; {narrow_plate_reason(sur)}", None
     net_model = network_truths(model)[-1]
@@ -276,8 +270,8 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     """(network, answer(network), declined): the answer of the network `--truth auto` chose
     (``chosen``, from :func:`network_truth`); when this panel lies outside that network's
     training range, or the network refuses it (BadInput: a feature it never saw vary, such as
-    nu, or an implausible answer), the beam network's answer instead, with ``declined`` saying
-    why: an extrapolating plate network was measured worse than the beam network (the earlier
+    nu, or an implausible answer), the next network's answer instead (for a Mindlin network the
+    Kirchhoff plate's, the nearer physics, then the beam's), with ``declined`` saying why: an extrapolating plate network was measured worse than the beam network (the earlier
     plate-n4, commit e6a900f, trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of
     datasets/plate-n4-narrow-seed3: loss 5.9 % against beam-n4's 0.40 %). A plate panel no wider than PLATE_NETWORK_MIN_WIDTH
     goes to the beam network on purpose (``declined`` = NARROW_PLATE): measured closer to the
@@ -292,19 +286,38 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
         beam_net = load_surrogate(args, "beam")
         check_beam(beam, beam_net.truth)
         return beam_net, answer(beam_net), NARROW_PLATE
-    try:
-        if chosen is not None:
+    if chosen is None:          # asked for (or the beam network): its answer or refusal stands
+        return sur, answer(sur), None
+    # the chosen network, then the nearer physics' (a Mindlin panel: the Kirchhoff plate's),
+    # then the beam network, which answers or refuses as asked
+    declined = []
+    for fallback in (*network_truths(chosen)[1:], "beam"):
+        try:
             bad, texts = sur.check_range(sur.features([beam]))
             if bad.any():
                 raise BadInput(texts[0].replace("beam 0: ", "").replace(
                     "the prediction is an extrapolation", "it would extrapolate"))
-        return sur, answer(sur), None
-    except BadInput as exc:
-        if chosen is None:
-            raise
-        beam_net = load_surrogate(args, "beam")
-        check_beam(beam, beam_net.truth)     # the beam was read (and warned about) once already
-        return beam_net, answer(beam_net), f"{sur.name} cannot answer this panel ({exc})"
+            return sur, answer(sur), "; ".join(declined) or None
+        except BadInput as exc:
+            declined.append(f"{sur.name} cannot answer this panel ({exc})")
+        if fallback != "beam" and not has_network(args, fallback):
+            continue
+        sur = load_surrogate(args, fallback)
+        check_beam(beam, sur.truth)     # the beam was read (and warned about) once already
+        if fallback == "beam":
+            return sur, answer(sur), "; ".join(declined)
+
+
+def has_network(args, truth: str) -> bool:
+    """Whether a default network of ``truth`` for these joints (and objective) is shipped."""
+    from .. import surrogate
+
+    try:
+        surrogate.default_checkpoint(args.joints, truth,
+                                     getattr(args, "objective", None) or "eigenvalue")
+        return True
+    except BadInput:
+        return False
 
 
 def predict_command(args) -> int:
