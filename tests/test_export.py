@@ -291,6 +291,29 @@ def test_cli_export_runs_the_fit_with_joints(run, files):
     assert desc["joints"] == 2 and len(desc["bodies"]) == 3
 
 
+def test_cli_export_carries_the_truths_shear_caveat(run, tmp_path):
+    """The export checks the model against its result's truth, which cannot see what that truth
+    leaves out: a thick strip's Euler-Bernoulli result (run here, or a saved `prbdm fit` or
+    `prbdm predict` JSON) is exported with the shear caveat; a thin one's without."""
+    thick = tmp_path / "thick.json"
+    thick.write_text(json.dumps({"x": [0, 1], "half_width": [0.024, 0.012], "thickness": 0.03}))
+    rc, out, err = run("export", thick, "--joints", 2, "--starts", 4, "-o", tmp_path / "a.json",
+                       "--json")
+    assert rc == 0, err
+    assert any("leaves out shear" in w for w in json.loads(out)["warnings"])
+    assert "leaves out shear" in err
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps({**FIT, "truth": "beam"}))        # a predict JSON names it so
+    rc, out, err = run("export", thick, "--from", fit, "--ignore-fingerprint", "-o",
+                       tmp_path / "b.json", "--json")
+    assert rc == 0 and any("leaves out shear" in w for w in json.loads(out)["warnings"]), err
+    thin = tmp_path / "thin.json"
+    thin.write_text(json.dumps({"x": [0, 1], "half_width": [0.024, 0.012], "thickness": 0.004}))
+    rc, out, err = run("export", thin, "--joints", 2, "--starts", 4, "-o", tmp_path / "c.json",
+                       "--json")
+    assert rc == 0 and not any("shear" in w for w in json.loads(out)["warnings"]), err
+
+
 def test_cli_export_writes_atomically(run, files, monkeypatch):
     tmp, beam, fit = files
     target = tmp / "m.xml"

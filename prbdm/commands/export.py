@@ -105,12 +105,27 @@ def fit_from_args(args, beam) -> tuple[dict, list[str]]:
         if args.fit_file == "-" and args.beam == "-":
             raise BadInput("--from: BEAM and FIT.json cannot both be standard input")
         fit = load_fit(args.fit_file)
-        return fit, []
+        return fit, truth_caveat(beam, fit)
     n = args.joints
     poses, warnings = parse_poses(args.poses or args.default_poses, n)
     fit = run_fit(beam, n, modes=args.modes, law=args.law or "beam", poses=poses,
                   starts=args.starts, seed=args.seed or 0)
-    return fit, warnings
+    return fit, warnings + truth_caveat(beam, fit)
+
+
+def truth_caveat(beam, fit: dict) -> list[str]:
+    """The shear caveat (:func:`prbdm.truth.choice.shear_caveat`) of the physics the result
+    follows: its truth (``prbdm fit``'s ``truth.model``) or its network's (``prbdm predict``'s
+    ``truth``). The export's own check compares the model with that truth, so it cannot see
+    what the truth itself leaves out; a result that names no truth gets none."""
+    from ..truth.choice import shear_caveat
+
+    truth = fit.get("truth")
+    model = truth.get("model") if isinstance(truth, dict) else truth
+    if model not in ("beam", "plate", "mindlin"):
+        return []
+    caveat = shear_caveat(beam, model)
+    return [caveat] if caveat else []
 
 
 def prepared_from_args(args, beam):
