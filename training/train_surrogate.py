@@ -511,6 +511,11 @@ def train(mode, member=0):
     gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
+    if init_meta is not None:       # where the start stands on this run's truth
+        v = evaluate(net, split["val"])
+        log(f"{label:8s} start       val loss mean {v['loss_mean']:.4f} % median "
+            f"{v['loss_median']:.4f} % p95 {v['loss_p95']:.4f} %  freq err median per mode "
+            f"{[round(e * 100, 3) for e in v['freq_err_median']]} %")
     t0 = time.perf_counter()
     epoch = 0
     for epoch in range(1, max_epochs + 1):
