@@ -8,6 +8,7 @@ import math
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -659,3 +660,31 @@ def test_a_narrow_mindlin_panel_answered_by_the_beam_network_carries_the_shear_c
     o = json.loads(out)
     assert rc == 0 and o["truth"] == "beam" and "Mindlin" in o["truth_reason"]
     assert any("leaves out transverse shear" in w for w in o["warnings"])
+    # exported, the model keeps that caveat (the export checks it against the network's own
+    # truth frequencies, which cannot show it)
+    saved = Path(panel).parent / "predict.json"
+    saved.write_text(out)
+    rc, out, err = run(capsys, "export", panel, "--from", saved, "-o", saved.parent / "m.json",
+                       "--json")
+    assert rc == 0 and any("leaves out transverse shear" in w
+                           for w in json.loads(out)["warnings"]), err
+
+
+def test_a_declined_mindlin_network_is_a_warning_not_only_a_reason():
+    """`--truth auto` gave a Mindlin panel to a Mindlin network that could not answer it, and the
+    Kirchhoff plate network answered: the answer follows other physics than the panel needs,
+    so that is a warning (stderr and JSON), as when the beam network answers a plate panel; with
+    no Mindlin network at all the reason says which is missing (the shear caveat warns)."""
+    from types import SimpleNamespace
+
+    from prbdm.commands.predict import truth_reason
+
+    panel = random_beam(3, 0)
+    plate_net = SimpleNamespace(truth="plate", name="plate-n4", joints=4)
+    choice = ("mindlin", "auto: thick")
+    declined = "mindlin-n4 cannot answer this panel (feature log_thickness = -5 lies outside ...)"
+    reason, warning = truth_reason(panel, plate_net, None, choice, declined)
+    assert "plate-n4" in reason and "Kirchhoff" in reason
+    assert warning is not None and declined in warning and "--truth mindlin" in warning
+    reason, warning = truth_reason(panel, plate_net, None, choice, None)
+    assert warning is None and "no mindlin network for 4 joints" in reason

@@ -293,15 +293,18 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     network differs is refused with one line, before anything is written."""
     start = tmp_path / "start.safetensors"
     run = script("train_surrogate.py", "--data", tiny_data, "--out", start, "--device", "cpu",
-                 *TINY_NET, cwd=tmp_path)
+                 *TINY_NET, "--members", 2, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-3000:]
     plate = tmp_path / "plate"
     D.generate(plate, 20, D.make_spec(joints=2, starts=0, seed=7, truth="plate",
                                       max_half_width=[0.05, 0.2]), workers=0, progress="none")
     tuned = tmp_path / "tuned.safetensors"
     run = script("train_surrogate.py", "--data", plate, "--out", tuned, "--device", "cpu",
-                 "--init_from", start, "--lr", "1e-12", *TINY_NET, cwd=tmp_path)
+                 "--init_from", start, "--lr", "1e-12", *TINY_NET, "--members", 2, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-3000:]
+    log = tuned.with_suffix(".log").read_text()
+    assert "starting at zero weight: log_aspect, nu" in log
+    assert log.count(" start       val loss") == 2            # each member's start, measured
     a, b = sg.load_checkpoint(start), sg.load_checkpoint(tuned)
     assert b.truth == "plate" and {"log_aspect", "nu"} <= set(b.metadata["features"]["names"])
     record = b.metadata["training"]["init_from"]
@@ -318,4 +321,10 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
                  "--init_from", tmp_path / "none.safetensors", *TINY_NET, cwd=tmp_path)
     _one_line_exit_2(run, "--init_from", "none.safetensors")
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "c.safetensors",
+                 "--init_from", tuned, *TINY_NET, cwd=tmp_path)      # a plate start, beam data
+    _one_line_exit_2(run, "--init_from", "log_aspect", "subset")
+    run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
+                 "--init_from", start, "--init_gamma", "0.4,0.3,0.3", *TINY_NET, cwd=tmp_path)
+    _one_line_exit_2(run, "--init_gamma", "--init_from")
     assert listing(tmp_path) == before

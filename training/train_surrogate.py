@@ -251,24 +251,47 @@ if init_gamma:
 
 # a start checkpoint (fine-tuning, e.g. the Kirchhoff plate's network on Mindlin labels): its
 # network and feature settings must be these, so that its weights mean the same here
-init_weights, init_meta = None, None
+init_weights, init_meta, init_sha256 = None, None, None
 if init_from:
+    if init_gamma:
+        _fail("--init_gamma: not with --init_from (the start checkpoint's segmentations are the "
+              "start)")
     try:
         init_weights, init_meta = sg.read_checkpoint(init_from)
+        init_sha256 = hashlib.sha256(Path(init_from).read_bytes()).hexdigest()
+        _net, _fs = init_meta["network"], init_meta["features"]["spec"]
+        _R = min(spec["truth_modes"], rfe_segments - 1)
+        _names = sg.feature_names(sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments,
+                                                 rfe_modes=_R, truth=spec["truth"],
+                                                 rfe_coarse=rfe_coarse, spread=spread))
+        _poses = model.make_poses(spec["poses"], n).tolist()
+        _need = {"joints": (init_meta["joints"], n), "width": (_net["width"], width),
+                 "depth": (_net["depth"], depth), "k_mode": (_net["k_mode"], k_mode),
+                 "hypotheses": (_net["hypotheses"], hypotheses),
+                 "poses": (init_meta["poses"], _poses), "truth_modes": (init_meta["truth_modes"], _R),
+                 # spread is absent from checkpoints made before it (then off)
+                 **{k: (_fs.get(k, False) if k == "spread" else _fs[k], globals()[k])
+                    for k in ("cells", "rfe_segments", "rfe_coarse", "spread")}}
+        _lost = [f for f in init_meta["features"]["names"] if f not in _names]
+        for _k in ("feature_mean", "feature_std", "logk_mean", "logk_std", "freq_mean",
+                   "freq_std", "gamma_mean", "gamma_std"):
+            init_meta["normalisation"][_k]
     except BadInput as exc:
         _fail(f"--init_from: {exc}")
-    _net, _fs = init_meta["network"], init_meta["features"]["spec"]
-    _need = {"joints": (init_meta["joints"], n), "width": (_net["width"], width),
-             "depth": (_net["depth"], depth), "k_mode": (_net["k_mode"], k_mode),
-             "hypotheses": (_net["hypotheses"], hypotheses),
-             "poses": (len(init_meta["poses"]), len(model.make_poses(spec["poses"], n))),
-             "truth_modes": (init_meta["truth_modes"], min(spec["truth_modes"], rfe_segments - 1)),
-             **{k: (_fs.get(k, False), globals()[k]) for k in ("cells", "rfe_segments",
-                                                              "rfe_coarse", "spread")}}
+    except (KeyError, TypeError) as exc:
+        _fail(f"--init_from: {init_from} lacks {exc} in its metadata; a start checkpoint must be "
+              f"one that training/train_surrogate.py wrote")
     for _k, (_have, _want) in _need.items():
-        if _have != _want:
-            _fail(f"--init_from: {init_from} has {_k} = {_have!r}, this run {_want!r}; a start "
+        if (not (np.shape(_have) == np.shape(_want)
+                 and np.allclose(_have, _want, rtol=0, atol=1e-12)) if _k == "poses"
+                else _have != _want):
+            _have, _want = ((f"{np.round(_have, 4).tolist()}", f"{np.round(_want, 4).tolist()}")
+                            if _k == "poses" else (repr(_have), repr(_want)))
+            _fail(f"--init_from: {init_from} has {_k} = {_have}, this run {_want}; a start "
                   f"checkpoint must have this run's network and feature settings")
+    if _lost:
+        _fail(f"--init_from: {init_from} uses features this run's truth ({spec['truth']}) does "
+              f"not have ({', '.join(_lost[:3])}); a start must use a subset of this run's")
 
 # ------------------------------------------------------------------------------- log
 out_path.parent.mkdir(parents=True, exist_ok=True)
@@ -299,7 +322,8 @@ def log(text, always=True):
 
 log(f"# train_surrogate {dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds')}")
 log("config " + json.dumps({**config, "data": _cli.portable_path(data),
-                            "out": _cli.portable_path(out), "device": device}))
+                            "out": _cli.portable_path(out), "device": device,
+                            "init_from": _cli.portable_path(init_from) if init_from else ""}))
 
 poses = model.make_poses(spec["poses"], n)
 m = poses.shape[0]
@@ -511,8 +535,11 @@ def train(mode, member=0):
     gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
-    if init_meta is not None:       # where the start stands on this run's truth
+    if init_meta is not None:
+        # where the start stands on this run's truth; it is epoch 0, kept if no epoch beats it
         v = evaluate(net, split["val"])
+        best = v["loss_" + select]
+        best_state = {k: v_.clone() for k, v_ in net.state_dict().items()}
         log(f"{label:8s} start       val loss mean {v['loss_mean']:.4f} % median "
             f"{v['loss_median']:.4f} % p95 {v['loss_p95']:.4f} %  freq err median per mode "
             f"{[round(e * 100, 3) for e in v['freq_err_median']]} %")
@@ -662,8 +689,7 @@ meta = {
                  "comparison": results, "time_s": train_time,
                  **({"init_from": {"path": _cli.portable_path(init_from),
                                    "name": init_meta.get("name"), "truth": init_meta["truth"],
-                                   "sha256": hashlib.sha256(Path(init_from).read_bytes()
-                                                            ).hexdigest(),
+                                   "sha256": init_sha256,
                                    "git_commit": init_meta.get("git_commit")}}
                     if init_meta is not None else {}), "torch_threads": threads,
                  "device": str(dev)},

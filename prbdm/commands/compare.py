@@ -3,10 +3,11 @@
 Four ways to get the PRBDM of one beam, side by side:
 
 - ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against; by
-  default ``auto`` as in ``prbdm predict``: the plate for a panel wider than 0.05 L, with the
-  plate network when the panel is wider than 0.1 L and one is found that can answer it, else the
-  beam network measured against the plate (on purpose up to 0.1 L, said in ``truth.reason``;
-  otherwise said in ``warnings``);
+  default ``auto`` as in ``prbdm predict``: the plate for a panel wider than 0.05 L (the Mindlin
+  plate for a thick or necked one), with that truth's network when the panel is wider than 0.1 L
+  and one is found that can answer it, else the next (Mindlin, Kirchhoff plate, beam) measured
+  against that truth (the beam's on purpose up to 0.1 L, said in ``truth.reason``; otherwise said
+  in ``warnings``);
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:
   the network's own prediction of the truth frequencies;
 - ``fit``: the optimised PRBDM (multistart, :func:`prbdm.fit.fit_prbdm`, ``--starts``), minimising
@@ -42,11 +43,12 @@ def add_arguments(parser):
     add_beam_argument(parser)
     parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
                         help="number of revolute joints n (a checkpoint must exist for it)")
-    parser.add_argument("--truth", choices=("beam", "plate", "auto"), default=None,
+    parser.add_argument("--truth", choices=("beam", "plate", "mindlin", "auto"), default=None,
                         help="truth model and network (default: auto, as prbdm predict: the "
-                             "plate for a panel wider than 0.05 L, with the plate network above "
-                             "0.1 L when one is found, else the beam network measured against "
-                             "the plate)")
+                             "plate, or the Mindlin plate for a thick or necked one, for a panel "
+                             "wider than 0.05 L, with that truth's network above 0.1 L when one "
+                             "is found and covers it, else the next one's, measured against "
+                             "that truth)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (default: the packaged one for --joints, "
                              "--truth)")

@@ -116,15 +116,21 @@ def fit_from_args(args, beam) -> tuple[dict, list[str]]:
 def truth_caveat(beam, fit: dict) -> list[str]:
     """The shear caveat (:func:`prbdm.truth.choice.shear_caveat`) of the physics the result
     follows: its truth (``prbdm fit``'s ``truth.model``) or its network's (``prbdm predict``'s
-    ``truth``). The export's own check compares the model with that truth, so it cannot see
-    what the truth itself leaves out; a result that names no truth gets none."""
-    from ..truth.choice import shear_caveat
+    ``truth``; as predict says it, :func:`prbdm.commands.predict.answer_caveat`, so that a
+    narrow panel's beam-network answer keeps the plate's caveat). The export's own check
+    compares the model with that truth, so it cannot see what the truth leaves out; a result
+    that names no truth gets none."""
+    from ..truth.choice import choose_truth, shear_caveat
+    from .predict import answer_caveat
 
     truth = fit.get("truth")
     model = truth.get("model") if isinstance(truth, dict) else truth
-    if model not in ("beam", "plate", "mindlin"):
+    if model not in ("analytic", "beam", "plate", "mindlin"):
         return []
-    caveat = shear_caveat(beam, model)
+    if isinstance(truth, dict):
+        caveat = shear_caveat(beam, model)
+    else:                       # a prediction: the caveat predict gave it
+        caveat = answer_caveat(beam, model, choose_truth(beam, "auto"), None)
     return [caveat] if caveat else []
 
 

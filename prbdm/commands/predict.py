@@ -10,8 +10,9 @@ The checkpoint is ``--checkpoint PATH``, or the default one for (``--joints``, `
 corrupt or inconsistent). A beam whose features fall outside the range seen in training gets a
 warning naming the feature (stderr; also in ``warnings`` of the JSON); a feature that did not vary
 in training at all (e.g. nu for a plate network trained on one material) is refused (exit 2)
-unless ``--allow-extrapolation``; when ``--truth auto`` (the default) chose that network, the beam
-network answers instead and the warning says why. A prediction that is non-finite or outside physical ranges
+unless ``--allow-extrapolation``; when ``--truth auto`` (the default) chose that network, the next
+one answers instead (a Mindlin network's panel goes to the Kirchhoff plate's, the nearer physics,
+then to the beam's) and the warning says why. A prediction that is non-finite or outside physical ranges
 (:func:`prbdm.surrogate.physical_problems`) is an error: exit 2 when the beam lies outside the
 training range, exit 1 otherwise (the checkpoint's fault), one line on stderr, never a number.
 Any other failure is one line and exit 1 too, with or without ``--json``.
@@ -34,7 +35,7 @@ from ..constants import OBJECTIVES
 from ..errors import BadInput
 from ._common import add_beam_argument, peek_beam, positive_int, print_json, read_beam, table
 
-TRUTHS = ("beam", "plate")
+TRUTHS = ("beam", "plate", "mindlin")
 
 
 def add_arguments(parser):
@@ -42,11 +43,13 @@ def add_arguments(parser):
     parser.add_argument("--joints", "-n", type=positive_int(1, 39), required=True,
                         help="number of revolute joints n (a checkpoint must exist for it)")
     parser.add_argument("--truth", choices=(*TRUTHS, "auto"), default=None,
-                        help="truth model the network was trained on (default auto: the "
-                             "plate's network for a panel wider than 0.1 L when one is found "
-                             "and covers it, else the beam's, whose PRBDM is the closer to the "
-                             "plate on plate panels 0.05-0.1 L wide; with --checkpoint, the "
-                             "checkpoint's)")
+                        help="truth model the network was trained on (default auto: for a "
+                             "panel wider than 0.1 L the network of the truth it needs, the "
+                             "Mindlin plate's (thick or necked) or the Kirchhoff plate's, when "
+                             "one is found and covers it, else the next: Mindlin, plate, beam; "
+                             "the beam's for a strip, and on plate panels 0.05-0.1 L wide, "
+                             "where its PRBDM is the closer to the plate; with --checkpoint, "
+                             "the checkpoint's)")
     parser.add_argument("--checkpoint", metavar="PATH", default=None,
                         help="surrogate checkpoint (.safetensors); default: the packaged one for "
                              "--joints and --truth")
@@ -233,9 +236,15 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     if model == sur.truth:
         return f"{why}; checkpoint {sur.name}", None
     if model == "mindlin" and sur.truth == "plate":
-        # the warning is the shear caveat of the network's physics (predict_command)
-        missing = declined or "no network has learned the Mindlin plate yet"
-        return f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: {missing}", None
+        # the shear caveat of the network's physics goes with it (predict_command); a Mindlin
+        # network that was found and declined is worth a warning of its own
+        if declined:
+            return (f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network",
+                    f"{declined}, so this answer follows the Kirchhoff plate, the nearer "
+                    f"physics (the shear caveat says how near); for the shear-deformable plate "
+                    f"use `prbdm fit BEAM --joints {sur.joints} --truth mindlin`")
+        return (f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: no mindlin network "
+                f"for {sur.joints} joints is shipped"), None
     if declined == NARROW_PLATE:
         return f"{why}; {narrow_plate_reason(sur)}", None
     net_model = network_truths(model)[-1]
@@ -291,7 +300,7 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     # the chosen network, then the nearer physics' (a Mindlin panel: the Kirchhoff plate's),
     # then the beam network, which answers or refuses as asked
     declined = []
-    for fallback in (*network_truths(chosen)[1:], "beam"):
+    for fallback in (*(t for t in network_truths(chosen)[1:] if has_network(args, t)), "beam"):
         try:
             bad, texts = sur.check_range(sur.features([beam]))
             if bad.any():
@@ -300,12 +309,11 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
             return sur, answer(sur), "; ".join(declined) or None
         except BadInput as exc:
             declined.append(f"{sur.name} cannot answer this panel ({exc})")
-        if fallback != "beam" and not has_network(args, fallback):
-            continue
         sur = load_surrogate(args, fallback)
         check_beam(beam, sur.truth)     # the beam was read (and warned about) once already
         if fallback == "beam":
             return sur, answer(sur), "; ".join(declined)
+    raise AssertionError("unreachable: the beam network ends the chain")
 
 
 def has_network(args, truth: str) -> bool:
