@@ -17,7 +17,8 @@ PNGS = ["error_vs_time.png", "fit_time_vs_n.png", "fit_time_vs_starts.png",
         "truth_time_vs_mesh.png", "network_throughput.png"]
 LABELS = ["plate truth", "beam truth", "RFE chain", "Howell 1R", "Su 3R", "fit, 8 starts",
           "fit, 16 starts", "fit to plate truth", "| network |", "network + refined",
-          "network (direct frequencies)"]
+          "network (direct frequencies)", "Mindlin plate truth", "fit to Mindlin truth",
+          "plate network (plate-n4", "Mindlin network (mindlin-n4", "Mindlin network + refined"]
 
 
 @pytest.fixture(autouse=True)
@@ -51,10 +52,12 @@ def test_files_written(tiny):
 def test_every_method_in_both_tables(tiny):
     out, res = tiny
     md = (out / "report.md").read_text()
-    plate, beam = md.split("## Against the beam truth")
+    plate, rest = md.split("## Against the Mindlin plate truth")
+    mindlin, beam = rest.split("## Against the beam truth")
     for label in LABELS:
-        assert label in plate and label in beam, label
-    assert "(reference)" in plate.split("| method |")[1] and "(reference)" in beam
+        assert label in plate and label in mindlin and label in beam, label
+    for table in (plate.split("| method |")[1], mindlin, beam):
+        assert table.count("(reference)") == 1
 
 
 def test_numbers_finite_and_fit_beats_rfe(tiny):
@@ -62,7 +65,7 @@ def test_numbers_finite_and_fit_beats_rfe(tiny):
     by_key = {m["key"]: m for m in res["methods"]}
     for m in res["methods"]:
         assert math.isfinite(m["time_s"]) and m["time_s"] > 0, m["key"]
-        for ref in ("plate", "beam"):
+        for ref in ("plate", "mindlin", "beam"):
             e = m["errors"][ref]
             if e.get("reference"):
                 continue
@@ -77,6 +80,13 @@ def test_numbers_finite_and_fit_beats_rfe(tiny):
     assert by_key["su-3r"]["errors"]["beam"]["modes"] == 3
     assert by_key["fit_plate"]["errors"]["plate"]["loss_median"] < \
         by_key["fit_8"]["errors"]["plate"]["loss_median"]
+    # each panel fit is the closest to its own truth; refining the Mindlin network helps
+    assert by_key["fit_mindlin"]["errors"]["mindlin"]["loss_median"] < \
+        by_key["fit_plate"]["errors"]["mindlin"]["loss_median"]
+    assert by_key["fit_plate"]["errors"]["plate"]["loss_median"] < \
+        by_key["fit_mindlin"]["errors"]["plate"]["loss_median"]
+    assert by_key["mindlin_refined"]["errors"]["mindlin"]["loss_median"] < \
+        by_key["mindlin_network"]["errors"]["mindlin"]["loss_median"]
     sc = res["scaling"]
     assert [r["n"] for r in sc["fit_vs_n"]["rows"]] == [3, 4, 6]
     assert all(r["beams_per_s"] > 0 for r in sc["network_throughput"]["rows"])
@@ -90,7 +100,7 @@ def test_config_records_the_start_counts_run(tiny):
     _, res = tiny
     assert res["config"]["starts"] == [8, 16]
     assert [m["key"] for m in res["methods"] if m["key"].startswith("fit_")
-            and m["key"] != "fit_plate"] == ["fit_8", "fit_16"]
+            and m["key"] not in ("fit_plate", "fit_mindlin")] == ["fit_8", "fit_16"]
 
 
 def _run(argv, capsys):

@@ -22,6 +22,9 @@ network + refined   ``fit_many`` from the network's best 4 candidate gammas and 
 network (direct)    the network's own prediction of the beam-truth frequencies
 plate network       the same three rows for the plate network (``plate-n4``), refined against
                     the plate truth; absent when no plate network is found
+Mindlin plate       the shear-deformable plate (:mod:`prbdm.truth.mindlin`), a third reference:
+                    its truth, a 64-start fit to it and the Mindlin network's rows
+                    (``mindlin-n4``), like the plate's
 ==================  ==========================================================================
 
 Errors of a model against a reference truth: the docs/conventions.md §3 loss over the first

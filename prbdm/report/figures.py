@@ -26,26 +26,35 @@ def _png(fig) -> bytes:
 
 _MARKERS = {"plate_truth": "s", "beam_truth": "D", "rfe": "v", "howell-1r": "<", "su-3r": ">",
             "fit_plate": "P", "network": "*", "refined": "X", "direct": "h",
-            "plate_network": "p", "plate_refined": "d", "plate_direct": "H"}
+            "plate_network": "p", "plate_refined": "d", "plate_direct": "H",
+            "mindlin_truth": "8", "fit_mindlin": "P", "mindlin_network": "p",
+            "mindlin_refined": "d", "mindlin_direct": "H"}
+_PANEL_FITS = ("fit_plate", "fit_mindlin")          # fits to a panel truth, not start counts
 
 
 def _colors(methods, plt) -> dict:
     """Distinct colours; the fits at several start counts in shades of one hue."""
-    fits = [m["key"] for m in methods if m["key"].startswith("fit_") and m["key"] != "fit_plate"]
+    fits = [m["key"] for m in methods
+            if m["key"].startswith("fit_") and m["key"] not in _PANEL_FITS]
     greens = plt.get_cmap("Greens")
     out = {k: greens(0.4 + 0.55 * i / max(len(fits) - 1, 1)) for i, k in enumerate(fits)}
     others = [m["key"] for m in methods if m["key"] not in out]
     tab = plt.get_cmap("tab10")
     palette = [tab(i) for i in (0, 1, 3, 4, 5, 6, 7, 8, 9, 2)]
+    if len(others) > len(palette):        # the Mindlin rows: the lighter tab20 shades too
+        light = plt.get_cmap("tab20")
+        palette += [light(2 * i + 1) for i in (0, 1, 3, 4, 5, 6, 7, 8, 9, 2)]
     out.update({k: palette[i % len(palette)] for i, k in enumerate(others)})
     return out
 
 
 def plot_error_vs_time(res: dict) -> bytes:
     plt = _pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+    refs = [ref for ref in ("plate", "mindlin", "beam")
+            if any(m["errors"].get(ref, {}).get("reference") for m in res["methods"])]
+    fig, axes = plt.subplots(len(refs), 2, figsize=(12, 4.5 * len(refs)), squeeze=False)
     colors = _colors(res["methods"], plt)
-    for row, ref in enumerate(("plate", "beam")):
+    for row, ref in enumerate(refs):
         for col, (stat, label) in enumerate((("loss", "loss (docs/conventions.md §3) [%]"),
                                              ("worst", "worst per-mode frequency error [%]"))):
             ax = axes[row, col]
@@ -72,7 +81,9 @@ def plot_error_vs_time(res: dict) -> bytes:
             ax.grid(True, which="both", alpha=0.3)
             ax.set_xlabel("time per beam [s]")
             ax.set_ylabel(label)
-            ax.set_title(f"against the {ref} truth" + (" (reference)" if ref == "plate" else ""))
+            ax.set_title({"plate": "against the Kirchhoff plate truth (reference)",
+                          "mindlin": "against the Mindlin plate truth (thick panels' physics)",
+                          "beam": "against the beam truth"}[ref])
     handles = {}
     for ax in axes.flat:
         for h, lab in zip(*ax.get_legend_handles_labels()):

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import BadInput
 
 JOINTS, MODES = 4, 4
+_TRUTH_NAME = {"plate": "plate", "mindlin": "Mindlin"}     # row labels of the panel truths
 DEFAULT_STARTS = (8, 16, 32, 64)
 
 @dataclass
@@ -160,21 +161,10 @@ def run_report(cfg: ReportConfig) -> dict:
         om_beam[i] = bending_frequencies(b, model="beam", modes=r).omega
         t_beam[i] = time.perf_counter() - t0
     cfg.say(f"beam truth: {B} beams, {t_beam.mean() * 1e3:.1f} ms/beam")
-    om_plate, t_plate = np.full((B, r), np.nan), np.full(B, np.nan)
-    plate_fail = []
-    from ..geometry import Beam
-    bending_frequencies(Beam(x=[0, 1], half_width=[0.1, 0.1], thickness=0.01), model="plate",
-                        modes=r)                                   # warm-up (imports, caches)
-    for i, b in enumerate(beams):
-        t0 = time.perf_counter()
-        try:
-            om_plate[i] = bending_frequencies(b, model="plate", modes=r).omega
-        except BadInput as exc:
-            plate_fail.append({"beam": i, "error": str(exc)})
-        t_plate[i] = time.perf_counter() - t0
-        if (i + 1) % 10 == 0:
-            cfg.say(f"plate truth: {i + 1}/{B} beams, {np.nanmean(t_plate):.2f} s/beam")
+    om_plate, t_plate, plate_fail = _panel_truth(cfg, beams, "plate", r)
     ok_plate = np.isfinite(om_plate).all(1)
+    om_mindlin, t_mindlin, mindlin_fail = _panel_truth(cfg, beams, "mindlin", r)
+    ok_mindlin = np.isfinite(om_mindlin).all(1)
 
     methods = []
 
@@ -186,6 +176,9 @@ def run_report(cfg: ReportConfig) -> dict:
     add("plate_truth", "plate truth", om_plate, np.nanmean(t_plate), None,
         note="Kirchhoff plate, Argyris FEM (reference)",
         extra={"time_median_s": _q(t_plate, 50)})
+    add("mindlin_truth", "Mindlin plate truth", om_mindlin, np.nanmean(t_mindlin), None,
+        note="shear-deformable (Reissner-Mindlin) plate FEM, the faithful truth of thick or "
+             "necked panels", extra={"time_median_s": _q(t_mindlin, 50)})
     add("beam_truth", "beam truth", om_beam, t_beam.mean(), None,
         note="Euler-Bernoulli, Hermite FEM", extra={"time_median_s": _q(t_beam, 50)})
 
@@ -227,16 +220,19 @@ def run_report(cfg: ReportConfig) -> dict:
             single_s=float(np.mean(ts)) if ts else None)
         cfg.say(f"fit {S} starts: {t:.3f} s/beam batched")
     S_plate = max(starts)
-    keep = np.flatnonzero(ok_plate)
-    if keep.size:
+    for truth, om_t, ok_t in (("plate", om_plate, ok_plate), ("mindlin", om_mindlin, ok_mindlin)):
+        keep = np.flatnonzero(ok_t)
+        if not keep.size:
+            continue
         t0 = time.perf_counter()
-        res = fit_many([beams[i] for i in keep], om_plate[keep], joints=JOINTS, modes=r,
+        res = fit_many([beams[i] for i in keep], om_t[keep], joints=JOINTS, modes=r,
                        poses=poses, starts=S_plate, seed=cfg.fit_seed, objective=cfg.objective)
         t = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in res])
-        add("fit_plate", f"fit to plate truth, {S_plate} starts", om, t, JOINTS, needs="plate",
-            note="fit_many to the plate truth, all beams in one batch")
+        add(f"fit_{truth}", f"fit to {_TRUTH_NAME[truth]} truth, {S_plate} starts", om, t,
+            JOINTS, needs=truth, note=f"fit_many to the {_TRUTH_NAME[truth]} truth, all beams "
+                                      "in one batch")
 
     # ---------------------------------------------------------------- network
     with warnings.catch_warnings():
@@ -275,12 +271,14 @@ def run_report(cfg: ReportConfig) -> dict:
         note="the network's prediction of the beam-truth frequencies (same call as network)",
         single_s=t_net_single)
     cfg.say("network done")
-    _plate_network(cfg, beams, om_plate, ok_plate, poses, r, add)
+    _plate_network(cfg, beams, om_plate, ok_plate, poses, r, add, "plate")
+    _plate_network(cfg, beams, om_mindlin, ok_mindlin, poses, r, add, "mindlin")
 
     # ---------------------------------------------------------------- errors against both truths
     for m in methods:
         m["errors"] = {}
         for ref_key, ref, ok in (("plate", om_plate, ok_plate),
+                                 ("mindlin", om_mindlin, ok_mindlin),
                                  ("beam", om_beam, np.ones(B, dtype=bool))):
             valid = ok & np.isfinite(m["omega"].reshape(B, -1)).all(1)
             if m["key"] == f"{ref_key}_truth":
@@ -293,7 +291,8 @@ def run_report(cfg: ReportConfig) -> dict:
                 "worst_median": _q(worst, 50), "worst_p95": _q(worst, 95),
                 "worst_max": _q(worst, 100),
                 "per_mode_median": [_q(per_mode[:, j], 50) for j in range(rr)]}
-        need = {"beam": t_beam.mean(), "plate": np.nanmean(t_plate), None: 0.0}[m["needs"]]
+        need = {"beam": t_beam.mean(), "plate": np.nanmean(t_plate),
+                "mindlin": np.nanmean(t_mindlin), None: 0.0}[m["needs"]]
         m["total_s"] = m["time_s"] + need
         del m["omega"]
 
@@ -311,6 +310,7 @@ def run_report(cfg: ReportConfig) -> dict:
                        "dataset_seed": sur.metadata.get("dataset", {}).get("spec", {}).get("seed"),
                        "candidates": sur.hypotheses},
         "plate_failures": plate_fail,
+        "mindlin_failures": mindlin_fail,
         "methods": methods,
         "scaling": scaling,
         "environment": _environment(load0),
@@ -318,17 +318,20 @@ def run_report(cfg: ReportConfig) -> dict:
     }
 
 
-def _plate_network(cfg: ReportConfig, beams, om_plate, ok_plate, poses, r, add) -> None:
-    """The rows of the plate network (``plate-n4`` for the objective), when one is found: its
-    PRBDM, its own plate frequencies, and it refined against the plate truth like the beam
-    network's refinement (issue 16 item 6). No plate network: no rows, and the tables say so."""
+def _plate_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
+                   truth: str) -> None:
+    """The rows of the network of a panel truth (``plate-n4`` or ``mindlin-n4`` for the
+    objective), when one is found: its PRBDM, its own truth frequencies, and it refined against
+    its truth like the beam network's refinement (issue 16 item 6). Row keys start with the
+    truth's name; no such network: no rows, and the tables say so."""
     from .. import surrogate as sg
     from ..fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
 
+    name = _TRUTH_NAME[truth]
     try:
-        path = sg.default_checkpoint(JOINTS, "plate", cfg.objective)
+        path = sg.default_checkpoint(JOINTS, truth, cfg.objective)
     except BadInput:
-        cfg.say("no plate network: its rows are left out")
+        cfg.say(f"no {name} network: its rows are left out")
         return
     sur = sg.load_checkpoint(path)
     B = len(beams)
@@ -337,26 +340,49 @@ def _plate_network(cfg: ReportConfig, beams, om_plate, ok_plate, poses, r, add) 
         sur.predict(beams[:2], warn=False)
         pred, t_net = _best_of(lambda: sur.predict(beams, frequencies=True, warn=False))
     t_net /= B
-    add("plate_network", f"plate network ({sur.name})", pred.omega, t_net, JOINTS,
-        note=f"{sur.name}, trained on the plate truth, batched",
+    add(f"{truth}_network", f"{name} network ({sur.name})", pred.omega, t_net, JOINTS,
+        note=f"{sur.name}, trained on the {name} truth, batched",
         extra={"ood_beams": int(pred.ood.any(1).sum())})
-    keep = np.flatnonzero(ok_plate)
+    keep = np.flatnonzero(ok_truth)
     if keep.size:
         init = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))[keep]
         t0 = time.perf_counter()
-        best = fit_many([beams[i] for i in keep], om_plate[keep], joints=JOINTS, modes=r,
+        best = fit_many([beams[i] for i in keep], om_truth[keep], joints=JOINTS, modes=r,
                         poses=poses, init_gamma=init, max_iter=REFINE_ITER,
                         objective=cfg.objective)
         t_ref = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in best])
-        add("plate_refined", f"plate network + refined to the plate ({init.shape[1]} starts, "
-            f"{REFINE_ITER} it.)", om, t_net + t_ref, JOINTS, needs="plate",
-            note="fit_many to the plate truth from the plate network's candidates and the "
-                 "fit's four fixed starts")
-    add("plate_direct", "plate network (direct frequencies)", pred.omega_truth[:, :r], t_net,
-        None, note="the plate network's prediction of the plate-truth frequencies")
-    cfg.say("plate network done")
+        add(f"{truth}_refined", f"{name} network + refined to the {name} "
+            f"({init.shape[1]} starts, {REFINE_ITER} it.)", om, t_net + t_ref, JOINTS,
+            needs=truth, note=f"fit_many to the {name} truth from the {name} network's "
+                              "candidates and the fit's four fixed starts")
+    add(f"{truth}_direct", f"{name} network (direct frequencies)", pred.omega_truth[:, :r],
+        t_net, None, note=f"the {name} network's prediction of the {name}-truth frequencies")
+    cfg.say(f"{name} network done")
+
+
+def _panel_truth(cfg: ReportConfig, beams, model: str, r: int):
+    """A panel truth (``plate`` or ``mindlin``) of every beam, one at a time: frequencies (NaN
+    where the truth refuses the planform), seconds per beam, and the refusals."""
+    from ..geometry import Beam
+    from ..truth import bending_frequencies
+
+    B = len(beams)
+    om, t = np.full((B, r), np.nan), np.full(B, np.nan)
+    fails = []
+    bending_frequencies(Beam(x=[0, 1], half_width=[0.1, 0.1], thickness=0.01), model=model,
+                        modes=r)                                   # warm-up (imports, caches)
+    for i, b in enumerate(beams):
+        t0 = time.perf_counter()
+        try:
+            om[i] = bending_frequencies(b, model=model, modes=r).omega
+        except BadInput as exc:
+            fails.append({"beam": i, "error": str(exc)})
+        t[i] = time.perf_counter() - t0
+        if (i + 1) % 10 == 0:
+            cfg.say(f"{model} truth: {i + 1}/{B} beams, {np.nanmean(t):.2f} s/beam")
+    return om, t, fails
 
 
 def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:

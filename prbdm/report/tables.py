@@ -58,6 +58,33 @@ def per_mode_table(res: dict, ref: str) -> str:
     return "\n".join(lines)
 
 
+def _mindlin_section(res: dict) -> list:
+    """The Markdown lines against the Mindlin plate; none for a report made before it had one."""
+    truth = next((m for m in res["methods"] if m["key"] == "mindlin_truth"), None)
+    if truth is None:
+        return []
+    n = next(m for m in res["methods"] if m["key"] == "beam_truth")["errors"]["mindlin"]
+    has_net = any(m["key"] == "mindlin_network" for m in res["methods"])
+    return [
+        "## Against the Mindlin plate truth (the physics of thick or necked panels)",
+        "",
+        f"Every model against the shear-deformable plate's frequencies ({n.get('beams', 0)} "
+        f"beams; {len(res.get('mindlin_failures', []))} where it could not be solved are left "
+        "out): the truth `--truth auto` takes for a panel thick or necked enough that the "
+        "Kirchhoff plate would be more than 1 % high (docs/truth.md). `fit to Mindlin truth` "
+        "was fitted to it, and the Mindlin network's rows "
+        + ("(trained on it) are there too." if has_net
+           else "are absent: no Mindlin network was found."),
+        "",
+        method_table(res, "mindlin"),
+        "",
+        "Median per-mode frequency error (worst over the poses) against the Mindlin plate:",
+        "",
+        per_mode_table(res, "mindlin"),
+        "",
+    ]
+
+
 def render_markdown(res: dict, stability_md: str | None = None, stability_note: str = "") -> str:
     c, env, ck, src = res["config"], res["environment"], res["checkpoint"], res["source"]
     sc = res["scaling"]
@@ -109,6 +136,7 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         "",
         per_mode_table(res, "plate"),
         "",
+        *_mindlin_section(res),
         "## Against the beam truth (what the fits and the network target)",
         "",
         method_table(res, "beam"),
@@ -125,7 +153,8 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         "beam; batched methods (RFE chain, classical models, fits, network, refinement) are "
         "timed on all beams in one call and divided by their number (the cheap ones best of 3); "
         "truths are solved one beam at a time. `from geometry` adds the mean time of the truth "
-        "the method needs (beam truth for fits and refinement, plate truth for the plate fit). "
+        "the method needs (beam truth for fits and refinement, a plate truth for the fits and "
+        "refinements to it). "
         f"`one beam at a time` — the same method called for each of the first {c['single']} "
         "beams alone (what `prbdm fit`/`predict` cost), mean.",
         "",
@@ -175,9 +204,10 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         "|---|---|",
         *[f"| {r['batch']} | {r['beams_per_s']:.4g} |" for r in sc["network_throughput"]["rows"]],
     ]
-    if res["plate_failures"]:
-        lines += ["", "Plate truth failures: " + "; ".join(
-            f"beam {f['beam']}: {f['error']}" for f in res["plate_failures"])]
+    for key, name in (("plate_failures", "Plate"), ("mindlin_failures", "Mindlin plate")):
+        if res.get(key):
+            lines += ["", f"{name} truth failures: " + "; ".join(
+                f"beam {f['beam']}: {f['error']}" for f in res[key])]
     # the stability suite's Markdown brings its own heading
     if not (stability_md or "").lstrip().startswith("#"):
         lines += ["", "## Stability on stiff and extreme cases"]
