@@ -54,6 +54,7 @@ def main():
     table = ds.read_table(args.data, columns=["index", "x", "half_width", "thickness",
                                               "omega_truth", "loss_percent"],
                           status="ok").to_pandas()
+    table = table[~ds.refused_by_truth(table, spec)].reset_index(drop=True)   # stale labels
     pick = np.sort(np.random.default_rng(0).choice(len(table), min(args.beams, len(table)),
                                                    replace=False))
     table = table.iloc[pick].reset_index(drop=True)

@@ -53,6 +53,7 @@ def main():
     spec = ds.read_manifest(args.data)["spec"]
     table = ds.read_table(args.data, columns=["index", "x", "half_width", "thickness",
                                               "omega_truth"], status="ok").to_pandas()
+    table = table[~ds.refused_by_truth(table, spec)].reset_index(drop=True)   # stale labels
     batch = sg.BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
     omega = np.stack(table["omega_truth"].to_numpy())
     print(f"{len(table)} beams of {args.data}")

@@ -58,6 +58,7 @@ def main(argv=None) -> dict:
         sys.exit(f"plate_mode_switching: --data {a.data} is a {spec['truth']} set, not plate")
     table = ds.read_table(a.data, columns=["index", "x", "half_width", "thickness",
                                            "omega_truth"], status="ok").to_pandas()
+    table = table[~ds.refused_by_truth(table, spec)]          # labels today's plate refuses
     table = table.sort_values("index").head(a.panels).reset_index(drop=True)
     r = spec["modes"]
     flags, t0 = [], time.perf_counter()

@@ -1,6 +1,6 @@
 """The measurement of ``prbdm report``: held-out beams, every method timed and its errors against
-both truths, the scaling studies; :func:`run_report` returns all numbers as one dict (the
-methods and error definitions: :mod:`prbdm.report`)."""
+the three truths (beam, Kirchhoff and Mindlin plate), the scaling studies; :func:`run_report`
+returns all numbers as one dict (the methods and error definitions: :mod:`prbdm.report`)."""
 from __future__ import annotations
 
 import datetime as _dt
@@ -274,7 +274,7 @@ def run_report(cfg: ReportConfig) -> dict:
     _plate_network(cfg, beams, om_plate, ok_plate, poses, r, add, "plate")
     _plate_network(cfg, beams, om_mindlin, ok_mindlin, poses, r, add, "mindlin")
 
-    # ---------------------------------------------------------------- errors against both truths
+    # ---------------------------------------------------------------- errors against the truths
     for m in methods:
         m["errors"] = {}
         for ref_key, ref, ok in (("plate", om_plate, ok_plate),
