@@ -1,8 +1,9 @@
 """``prbdm report [--beams N] [--seed S] [--data DIR] [--out DIR] [--quick]``: error against run time.
 
-Evaluates every way to get a model of a beam (plate and beam truths, the rigid-finite-element
-chain, Howell's 1R and Su's 3R classical PRBMs, the optimised fit at several start counts, the
-network, the network then refined, the network's direct frequencies) on held-out beams, and how
+Evaluates every way to get a model of a beam (the Kirchhoff plate, Mindlin plate and beam
+truths, the rigid-finite-element chain, Howell's 1R and Su's 3R classical PRBMs, the optimised fit
+at several start counts and to each plate truth, the beam, plate and Mindlin networks, each then
+refined, and their direct frequencies) on held-out beams, against each truth, and how
 the cost grows (fit time against n and starts, truth time against mesh size, network throughput
 against batch size). Writes ``OUT/report.md``, ``OUT/report.json`` and PNG plots, each file
 atomically and only once everything is computed (see :mod:`prbdm.report`).

@@ -27,8 +27,8 @@ def _png(fig) -> bytes:
 _MARKERS = {"plate_truth": "s", "beam_truth": "D", "rfe": "v", "howell-1r": "<", "su-3r": ">",
             "fit_plate": "P", "network": "*", "refined": "X", "direct": "h",
             "plate_network": "p", "plate_refined": "d", "plate_direct": "H",
-            "mindlin_truth": "8", "fit_mindlin": "P", "mindlin_network": "p",
-            "mindlin_refined": "d", "mindlin_direct": "H"}
+            "mindlin_truth": "8", "fit_mindlin": "^", "mindlin_network": "x",
+            "mindlin_refined": "+", "mindlin_direct": "1"}
 _PANEL_FITS = ("fit_plate", "fit_mindlin")          # fits to a panel truth, not start counts
 
 
@@ -41,7 +41,7 @@ def _colors(methods, plt) -> dict:
     others = [m["key"] for m in methods if m["key"] not in out]
     tab = plt.get_cmap("tab10")
     palette = [tab(i) for i in (0, 1, 3, 4, 5, 6, 7, 8, 9, 2)]
-    if len(others) > len(palette):        # the Mindlin rows: the lighter tab20 shades too
+    if len(others) > len(palette):        # rows after the tenth: the lighter tab20 shades
         light = plt.get_cmap("tab20")
         palette += [light(2 * i + 1) for i in (0, 1, 3, 4, 5, 6, 7, 8, 9, 2)]
     out.update({k: palette[i % len(palette)] for i, k in enumerate(others)})
