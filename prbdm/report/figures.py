@@ -5,6 +5,8 @@ from __future__ import annotations
 import io
 import math
 
+from .measure import PANEL_TRUTHS
+
 
 def _pyplot():
     import matplotlib
@@ -29,7 +31,7 @@ _MARKERS = {"plate_truth": "s", "beam_truth": "D", "rfe": "v", "howell-1r": "<",
             "plate_network": "p", "plate_refined": "d", "plate_direct": "H",
             "mindlin_truth": "8", "fit_mindlin": "^", "mindlin_network": "x",
             "mindlin_refined": "+", "mindlin_direct": "1"}
-_PANEL_FITS = ("fit_plate", "fit_mindlin")          # fits to a panel truth, not start counts
+_PANEL_FITS = tuple(f"fit_{t}" for t in PANEL_TRUTHS)   # to a panel truth, not start counts
 
 
 def _colors(methods, plt) -> dict:

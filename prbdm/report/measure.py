@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import BadInput
 
 JOINTS, MODES = 4, 4
-_TRUTH_NAME = {"plate": "plate", "mindlin": "Mindlin"}     # row labels of the panel truths
+PANEL_TRUTHS = {"plate": "plate", "mindlin": "Mindlin"}    # panel truths: row labels
 DEFAULT_STARTS = (8, 16, 32, 64)
 
 @dataclass
@@ -230,9 +230,9 @@ def run_report(cfg: ReportConfig) -> dict:
         t = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in res])
-        add(f"fit_{truth}", f"fit to {_TRUTH_NAME[truth]} truth, {S_plate} starts", om, t,
-            JOINTS, needs=truth, note=f"fit_many to the {_TRUTH_NAME[truth]} truth, all beams "
-                                      "in one batch")
+        name = PANEL_TRUTHS[truth]
+        add(f"fit_{truth}", f"fit to {name} truth, {S_plate} starts", om, t, JOINTS,
+            needs=truth, note=f"fit_many to the {name} truth, all beams in one batch")
 
     # ---------------------------------------------------------------- network
     with warnings.catch_warnings():
@@ -271,8 +271,8 @@ def run_report(cfg: ReportConfig) -> dict:
         note="the network's prediction of the beam-truth frequencies (same call as network)",
         single_s=t_net_single)
     cfg.say("network done")
-    _plate_network(cfg, beams, om_plate, ok_plate, poses, r, add, "plate")
-    _plate_network(cfg, beams, om_mindlin, ok_mindlin, poses, r, add, "mindlin")
+    _panel_network(cfg, beams, om_plate, ok_plate, poses, r, add, "plate")
+    _panel_network(cfg, beams, om_mindlin, ok_mindlin, poses, r, add, "mindlin")
 
     # ---------------------------------------------------------------- errors against the truths
     for m in methods:
@@ -318,7 +318,7 @@ def run_report(cfg: ReportConfig) -> dict:
     }
 
 
-def _plate_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
+def _panel_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
                    truth: str) -> None:
     """The rows of the network of a panel truth (``plate-n4`` or ``mindlin-n4`` for the
     objective), when one is found: its PRBDM, its own truth frequencies, and it refined against
@@ -327,7 +327,7 @@ def _plate_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
     from .. import surrogate as sg
     from ..fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
 
-    name = _TRUTH_NAME[truth]
+    name = PANEL_TRUTHS[truth]
     try:
         path = sg.default_checkpoint(JOINTS, truth, cfg.objective)
     except BadInput:
