@@ -3,9 +3,10 @@
     python benchmarks/plate_width_bands.py --data datasets/plate-n4-narrow-seed3 \
         --checkpoints checkpoints/plate-n4.safetensors,checkpoints/beam-n4.safetensors
 
-For each held-out panel of a plate data set with fits (``prbdm dataset generate --truth plate``,
-``--starts`` > 0), each network's PRBDM is measured against the stored plate truth (the paper's
-loss over the network's poses, which the data set's fits share, docs/conventions.md §3) beside the optimised fit's, and its
+For each held-out panel of a plate data set with fits (``prbdm dataset generate --truth plate``
+or ``--truth mindlin``, ``--starts`` > 0), each network's PRBDM is measured against the stored
+plate truth, Kirchhoff or Mindlin as the set was labelled (the paper's loss over the network's
+poses, which the data set's fits share, docs/conventions.md §3), beside the optimised fit's, and its
 direct prediction of the plate frequencies (error per mode); medians per width band. This is
 what decides which network ``--truth auto`` should give a panel of a given width. No FEM runs:
 the truth is the stored one. Runs in seconds.
@@ -28,6 +29,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", required=True, help="held-out plate data set with fits")
     ap.add_argument("--checkpoints", required=True, help="comma-separated checkpoints")
+    ap.add_argument("--auto", default="", choices=("", "beam", "plate", "mindlin"),
+                    help="only the panels that --truth auto gives this truth (default: all)")
     ap.add_argument("--json", default="", help="also write the table here")
     args = ap.parse_args(argv)
 
@@ -40,14 +43,25 @@ def main(argv=None) -> int:
         t = ds.read_table(args.data, status="ok").to_pandas()
     except (BadInput, OSError) as exc:
         sys.exit(f"plate_width_bands: --data: {exc}")
-    if spec["truth"] != "plate" or spec["starts"] == 0:
-        sys.exit("plate_width_bands: --data: need a plate data set with fits (--starts > 0)")
+    if spec["truth"] not in ("plate", "mindlin") or spec["starts"] == 0:
+        sys.exit("plate_width_bands: --data: need a plate or mindlin data set with fits "
+                 "(--starts > 0)")
     # records whose planform today's plate refuses (corners sharper than it resolves; their
     # stored frequencies can be wrong) are left out
     refused = ds.refused_by_truth(t, spec)
     t = t[~refused].reset_index(drop=True)
     print(f"{len(t)} panels of {args.data} ({int(refused.sum())} left out: refused by today's "
           f"{spec['truth']} truth)")
+    if args.auto:
+        from prbdm.geometry import Beam, Material
+        from prbdm.truth.choice import choose_truth
+
+        material = Material(**spec["beam"]["material"])
+        auto = np.array([choose_truth(Beam(x=np.asarray(x), half_width=np.asarray(w),
+                                           thickness=float(th), material=material))[0]
+                         for x, w, th in zip(t["x"], t["half_width"], t["thickness"])])
+        t = t[auto == args.auto].reset_index(drop=True)
+        print(f"{len(t)} of them are {args.auto} panels for --truth auto")
     batch = sg.BeamBatch.from_table(t, spec["beam"]["material"])
     r = spec["modes"]
     omega = np.stack(t["omega_truth"].to_numpy())[:, :r]
@@ -65,10 +79,10 @@ def main(argv=None) -> int:
         direct = np.abs(pred.omega_truth[:, :r] / omega - 1) * 100
         rows[sur.name] = {"loss": loss, "direct": direct}
     out = {"data": args.data, "panels": len(t), "left_out_refused": int(refused.sum()),
-           "bands": []}
+           "auto": args.auto or None, "bands": []}
     listed = (width > BANDS[0]) & (width <= BANDS[-1])
     print(f"{len(t)} held-out panels of {args.data} ({listed.sum()} wider than {BANDS[0]} L), "
-          "against the plate truth; each network's PRBDM over its own poses; medians")
+          f"against the {spec['truth']} truth; each network's PRBDM over its own poses; medians")
     for lo, hi in zip(BANDS[:-1], BANDS[1:]):
         s = (width > lo) & (width <= hi)
         if not s.any():
