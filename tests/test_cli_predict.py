@@ -194,17 +194,36 @@ def test_predict_shipped_checkpoint(capsys, beam_file):
         assert o["truth"] == "mindlin" and o["checkpoint"]["name"] == "mindlin-n4.safetensors"
         assert not any("shear" in w for w in o["warnings"])
         assert any("rough estimate" in w for w in o["warnings"])
-        # a thick necked panel narrower than the paper's (0.24 L): outside mindlin-n4's range,
-        # so the Kirchhoff plate's network answers, with the shear caveat and a warning why
+        # a thick necked panel narrower than the paper's (0.24 L): mindlin-n4 learned those too
         mid = {"x": [0, 0.5, 0.6, 1], "half_width": [0.12, 0.12, 0.04, 0.12], "thickness": 0.03}
         rc, out, err = run(capsys, "predict", beam_file(mid), "--joints", 4, "--json")
         o = json.loads(out)
-        assert rc == 0 and o["checkpoint"]["name"] == "plate-n4.safetensors", err
-        assert any("mindlin-n4.safetensors cannot answer this panel" in w for w in o["warnings"])
+        assert rc == 0 and o["checkpoint"]["name"] == "mindlin-n4.safetensors", err
+        assert not any("shear" in w for w in o["warnings"])
+        # thinner than any panel it learned (t = 0.006 L; its neck, 6.7 t wide, still makes it a
+        # Mindlin panel): mindlin-n4 declines it, so the Kirchhoff plate's network answers, with
+        # the shear caveat and a warning why
+        thin = dict(mid, half_width=[0.12, 0.12, 0.02, 0.12], thickness=0.006)
+        rc, out, err = run(capsys, "predict", beam_file(thin), "--joints", 4, "--json")
+        o = json.loads(out)
+        assert rc == 0 and o["truth"] == "plate", err
+        assert o["checkpoint"]["name"] == "plate-n4.safetensors", err
+        assert any("mindlin-n4.safetensors cannot answer this panel" in w and "log_thickness" in w
+                   for w in o["warnings"])
         assert any("leaves out transverse shear" in w for w in o["warnings"])
     else:
         assert o["truth"] == "plate" and "Kirchhoff-plate network" in o["truth_reason"]
         assert any("leaves out transverse shear" in w for w in o["warnings"])
+    # n = 3 the same way: its own Mindlin network when shipped
+    rc, out, err = run(capsys, "predict", beam_file(random_beam(0, 10 ** 6).to_dict()),
+                       "--joints", 3, "--json")
+    o = json.loads(out)
+    assert rc == 0 and "Mindlin" in o["truth_reason"], err
+    if (SHIPPED.parent / "mindlin-n3.safetensors").is_file():
+        assert o["truth"] == "mindlin" and o["checkpoint"]["name"] == "mindlin-n3.safetensors"
+        assert len(o["gamma"]) == 4 and not any("shear" in w for w in o["warnings"])
+    else:
+        assert o["checkpoint"]["name"] == "plate-n3.safetensors"
 
 
 @pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
@@ -680,13 +699,23 @@ def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case, tiny_set):
                     reason="no shipped plate network")
 def test_a_narrow_mindlin_panel_answered_by_the_beam_network_carries_the_shear_caveat(capsys,
                                                                                       beam_file):
-    """0.08 L wide with a neck, t/L = 0.012: `auto` wants the Mindlin plate, the beam network
-    answers on purpose (narrow plate panel), and the answer says that the shear is missing."""
-    panel = beam_file({"x": [0, 0.5, 0.55, 1], "half_width": [0.04, 0.04, 0.015, 0.04],
-                       "thickness": 0.012})
+    """0.08 L wide with a neck: `auto` wants the Mindlin plate. At t/L = 0.012 the Mindlin
+    network answers (measured closer to that truth than the beam network at this width). At
+    t/L = 0.006, thinner than any panel it learned, it declines; the beam network answers (the
+    plate network is not the nearer one this narrow), and the answer says that the shear is
+    missing."""
+    shape = {"x": [0, 0.5, 0.55, 1], "half_width": [0.04, 0.04, 0.015, 0.04]}
+    if (SHIPPED.parent / "mindlin-n4.safetensors").is_file():
+        rc, out, err = run(capsys, "predict", beam_file(dict(shape, thickness=0.012)),
+                           "--joints", 4, "--json")
+        o = json.loads(out)
+        assert rc == 0 and o["truth"] == "mindlin", err
+        assert o["checkpoint"]["name"] == "mindlin-n4.safetensors"
+        assert not any("shear" in w for w in o["warnings"])
+    panel = beam_file(dict(shape, thickness=0.006))
     rc, out, err = run(capsys, "predict", panel, "--joints", 4, "--json")
     o = json.loads(out)
-    assert rc == 0 and o["truth"] == "beam" and "Mindlin" in o["truth_reason"]
+    assert rc == 0 and o["truth"] == "beam" and "Mindlin" in o["truth_reason"], err
     assert any("leaves out transverse shear" in w for w in o["warnings"])
     # exported, the model keeps that caveat (the export checks it against the network's own
     # truth frequencies, which cannot show it)

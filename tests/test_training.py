@@ -220,7 +220,7 @@ def test_config_bad_values_exit_2(tmp_path, capsys, text, word):
 
 
 @pytest.mark.parametrize("name", ["beam-n3", "beam-n4", "beam-n5", "beam-n4-frequency",
-                                  "plate-n3", "plate-n4", "mindlin-n4"])
+                                  "plate-n3", "plate-n4", "mindlin-n3", "mindlin-n4"])
 def test_shipped_recipes_are_the_checkpoints_own(name, tmp_path):
     """training/configs/NAME.toml holds what the shipped checkpoint's metadata records
     (every setting it records), has no --out (a rerun never overwrites it), and the training

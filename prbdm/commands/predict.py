@@ -280,18 +280,25 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     (``chosen``, from :func:`network_truth`); when this panel lies outside that network's
     training range, or the network refuses it (BadInput: a feature it never saw vary, such as
     nu, or an implausible answer), the next network's answer instead (for a Mindlin network the
-    Kirchhoff plate's, the nearer physics, then the beam's), with ``declined`` saying why: an extrapolating plate network was measured worse than the beam network (the earlier
-    plate-n4, commit e6a900f, trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of
-    datasets/plate-n4-narrow-seed3: loss 5.9 % against beam-n4's 0.40 %). A plate panel no wider than PLATE_NETWORK_MIN_WIDTH
-    goes to the beam network on purpose (``declined`` = NARROW_PLATE): measured closer to the
-    plate there (docs/surrogate.md). A network that was asked for (``--truth``, ``--checkpoint``)
-    or the beam network itself: its answer or refusal stands."""
+    Kirchhoff plate's, the nearer physics, then the beam's), with ``declined`` saying why: an
+    extrapolating plate network was measured worse than the beam network (the earlier plate-n4,
+    commit e6a900f, trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of
+    datasets/plate-n4-narrow-seed3: loss 5.9 % against beam-n4's 0.40 %).
+
+    A Kirchhoff plate panel no wider than PLATE_NETWORK_MIN_WIDTH goes to the beam network on
+    purpose (``declined`` = NARROW_PLATE): measured closer to the plate there than the plate
+    network (docs/surrogate.md). A Mindlin panel that narrow goes to the Mindlin network,
+    measured closer to its truth than both, and when that declines, to the beam network. A
+    network that was asked for (``--truth``, ``--checkpoint``) or the beam network itself: its
+    answer or refusal stands."""
     from ..constants import PLATE_NETWORK_MIN_WIDTH
     from ..geometry import check_beam
     from ..truth.choice import width_ratio
 
-    if chosen in ("plate", "mindlin") and width_ratio(beam) <= PLATE_NETWORK_MIN_WIDTH:
-        # the plate is this panel's truth, but the beam network was measured closer to it
+    narrow = width_ratio(beam) <= PLATE_NETWORK_MIN_WIDTH
+    if chosen == "plate" and narrow:
+        # the plate is this panel's truth, but the beam network was measured closer to it than
+        # the Kirchhoff plate's network (a Mindlin network was measured closer than both)
         beam_net = load_surrogate(args, "beam")
         check_beam(beam, beam_net.truth)
         return beam_net, answer(beam_net), NARROW_PLATE
@@ -300,7 +307,9 @@ def answer_or_fall_back(args, sur, chosen, answer, beam):
     # the chosen network, then the nearer physics' (a Mindlin panel: the Kirchhoff plate's),
     # then the beam network, which answers or refuses as asked
     declined = []
-    for fallback in (*(t for t in network_truths(chosen)[1:] if has_network(args, t)), "beam"):
+    nearer = [t for t in network_truths(chosen)[1:]
+              if has_network(args, t) and not (t == "plate" and narrow)]
+    for fallback in (*nearer, "beam"):
         try:
             bad, texts = sur.check_range(sur.features([beam]))
             if bad.any():
