@@ -53,12 +53,12 @@ def main(argv=None) -> int:
     print(f"{len(t)} panels of {args.data} ({int(refused.sum())} left out: refused by today's "
           f"{spec['truth']} truth)")
     if args.auto:
-        from prbdm.geometry import Beam, Material
+        from prbdm.dataset.schema import record_beam
+        from prbdm.geometry import Material
         from prbdm.truth.choice import choose_truth
 
         material = Material(**spec["beam"]["material"])
-        auto = np.array([choose_truth(Beam(x=np.asarray(x), half_width=np.asarray(w),
-                                           thickness=float(th), material=material))[0]
+        auto = np.array([choose_truth(record_beam(x, w, th, material))[0]
                          for x, w, th in zip(t["x"], t["half_width"], t["thickness"])])
         t = t[auto == args.auto].reset_index(drop=True)
         print(f"{len(t)} of them are {args.auto} panels for --truth auto")

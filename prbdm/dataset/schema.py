@@ -11,7 +11,7 @@ import numpy as np
 
 from ..constants import DEFAULT_STARTS, OBJECTIVES  # noqa: F401  (re-exported)
 from ..errors import BadInput
-from ..geometry import RANDOM_DEFAULTS, Material, random_beam
+from ..geometry import RANDOM_DEFAULTS, Beam, Material, random_beam
 
 MANIFEST = "_manifest.json"
 FORMAT = "prbdm-dataset"
@@ -151,20 +151,25 @@ def beam_for(spec: dict, index: int):
     return random_beam(spec["seed"], index, material=material, **gen)
 
 
+def record_beam(x, half_width, thickness, material: Material):
+    """The beam of a stored record, from its ``x``, ``half_width`` and ``thickness`` columns."""
+    return Beam(x=np.asarray(x), half_width=np.asarray(half_width), thickness=float(thickness),
+                material=material)
+
+
 def refused_by_truth(table, spec: dict) -> np.ndarray:
     """(N,) bool: the records of a stored set whose beam today's truth model refuses
     (:func:`prbdm.geometry.check_beam` with the spec's truth), from their ``x``, ``half_width``
     and ``thickness`` columns. A set labelled before a limit was added keeps those records as
     ``ok`` (e.g. plate panels with a corner sharper than ``MIN_PLATE_CORNER_DEGREES``, whose
     stored plate frequencies can be wrong): training and evaluation leave them out."""
-    from ..geometry import Beam, check_beam
+    from ..geometry import check_beam
 
     material = Material(**spec["beam"]["material"])
     out = np.zeros(len(table), dtype=bool)
     for i, (x, w, t) in enumerate(zip(table["x"], table["half_width"], table["thickness"])):
         try:
-            check_beam(Beam(x=np.asarray(x), half_width=np.asarray(w), thickness=float(t),
-                            material=material), spec["truth"])
+            check_beam(record_beam(x, w, t, material), spec["truth"])
         except BadInput:
             out[i] = True
     return out
