@@ -140,3 +140,45 @@ def test_kappa_is_refused_with_the_name_of_the_shear_factor():
     beam = Beam([0.0, 1.0], [0.25, 0.25], 0.04)
     with pytest.raises(BadInput, match="shear_factor"):
         bending_frequencies(beam, "mindlin", 2, kappa=0.8)
+
+
+@pytest.mark.parametrize("degree", [2, 4])
+def test_vectorised_assembly_equals_scikit_fem_forms(degree):
+    # _matrices builds every element matrix with one einsum; here the same operator is put
+    # together from scikit-fem BilinearForms, one scalar form per block, as the weak form reads
+    import scipy.sparse as sp
+    from skfem import Basis, BilinearForm, LinearForm
+
+    from prbdm.geometry import random_beam
+    from prbdm.truth.mindlin import DEGREES, _matrices, shear_stiffness
+    from prbdm.truth.plate import plate_mesh
+
+    nu, tau, kappa = 0.28, 0.03, 5.0 / 6.0
+    mesh, _ = plate_mesh(random_beam(11, 3, min_half_width=0.01), None, 5)
+    basis = Basis(mesh, DEGREES[degree]())
+    form = {name: BilinearForm(f).assemble(basis) for name, f in {
+        "xx": lambda u, v, w: u.grad[0] * v.grad[0], "yy": lambda u, v, w: u.grad[1] * v.grad[1],
+        "yx": lambda u, v, w: u.grad[1] * v.grad[0], "xy": lambda u, v, w: u.grad[0] * v.grad[1],
+        "x0": lambda u, v, w: u.grad[0] * v, "y0": lambda u, v, w: u.grad[1] * v,
+        "m": lambda u, v, w: u * v}.items()}
+    a, c = shear_stiffness(tau, nu, kappa), 0.5 * (1 - nu)
+    byx = c * form["yx"] + nu * form["xy"]        # test beta_y, trial beta_x
+    K_ref = sp.bmat([[a * (form["xx"] + form["yy"]), -a * form["x0"].T, -a * form["y0"].T],
+                     [-a * form["x0"], form["xx"] + c * form["yy"] + a * form["m"], byx.T],
+                     [-a * form["y0"], byx, form["yy"] + c * form["xx"] + a * form["m"]]])
+    r = tau ** 2 / 12
+    M_ref = sp.block_diag([form["m"], r * form["m"], r * form["m"]])
+    f_ref = LinearForm(lambda v, w: v).assemble(basis)
+
+    K, M, f, M0 = _matrices(basis, nu, tau, kappa)
+    assert abs(K - K_ref).max() <= 1e-13 * abs(K_ref).max()
+    assert abs(M - M_ref).max() <= 1e-13 * abs(M_ref).max()
+    np.testing.assert_allclose(f[:basis.N], f_ref, rtol=0, atol=1e-15)
+    assert not f[basis.N:].any()
+    assert abs(K - K.T).max() <= 1e-13 * abs(K).max()
+    assert abs(M0 - form["m"]).max() <= 1e-13 * abs(form["m"]).max()
+    # the free DOFs alone (keep), as the solver assembles them: the rows and columns of the whole
+    keep = np.arange(0, 3 * basis.N, 3)
+    Kk, Mk, _, _ = _matrices(basis, nu, tau, kappa, keep=keep)
+    assert abs(Kk - K_ref.tocsr()[keep][:, keep]).max() <= 1e-13 * abs(K_ref).max()
+    assert abs(Mk - M_ref.tocsr()[keep][:, keep]).max() <= 1e-13 * abs(M_ref).max()

@@ -48,13 +48,11 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
-from skfem import Basis, BilinearForm, ElementTriP2, ElementTriP3, ElementTriP4
+from skfem import Basis, ElementTriP2, ElementTriP3, ElementTriP4
 
 from ._linalg import ShiftInvertLanczos, refined_inverse
 from .modes import SECTION_THRESHOLD, section_fraction, select_bending
 from .plate import _scaled, _section_operators, plate_mesh
-from .plate import load as _load
-from .plate import mass as _mass
 
 __all__ = ["solve_mindlin", "shear_stiffness", "SHEAR_FACTOR", "DEFAULT_DEGREE", "DEGREES"]
 
@@ -76,59 +74,66 @@ def shear_stiffness(tau: float, nu: float, kappa: float = SHEAR_FACTOR) -> float
     return 6.0 * kappa * (1.0 - nu) / tau ** 2
 
 
-# scalar forms; the 3x3 block operator is put together in _matrices. ``u`` trial, ``v`` test.
-@BilinearForm
-def _dxdx(u, v, w):
-    return u.grad[0] * v.grad[0]
+def _sparse(triplets, size: int, keep=None, fmt: str = "csr"):
+    """The sum of element matrices into a ``size`` x ``size`` sparse matrix: ``triplets`` lists
+    ``(values (E, a, b), row dofs (E, a), column dofs (E, b))``. With ``keep`` (ascending DOF
+    numbers) only those rows and columns, renumbered in that order: the free DOFs' matrix without
+    building and slicing the whole one (the entries of the other DOFs go to (0, 0) as zeros)."""
+    if keep is not None:
+        number = np.full(size, -1)
+        number[keep] = np.arange(len(keep))
+        size = len(keep)
+        triplets = [(v * ((number[r] >= 0)[:, :, None] & (number[c] >= 0)[:, None, :]),
+                     np.maximum(number[r], 0), np.maximum(number[c], 0)) for v, r, c in triplets]
+    rows = np.concatenate([np.broadcast_to(r[:, :, None], v.shape).ravel() for v, r, _ in triplets])
+    cols = np.concatenate([np.broadcast_to(c[:, None, :], v.shape).ravel() for v, _, c in triplets])
+    data = np.concatenate([v.ravel() for v, _, _ in triplets])
+    return sp.coo_matrix((data, (rows, cols)), shape=(size, size)).asformat(fmt)
 
 
-@BilinearForm
-def _dydy(u, v, w):
-    return u.grad[1] * v.grad[1]
+def _matrices(basis, nu: float, tau: float, kappa: float, keep=None):
+    """Stiffness ``K`` (CSC) and mass ``M`` (CSR) on the unknowns ``[W, beta_x, beta_y]`` (each
+    ``basis.N``; with ``keep`` only those DOFs, as :func:`_sparse`), the load vector ``f``
+    (``int W``, every DOF) of a uniform transverse acceleration and the mass matrix ``M0`` of one
+    field (``N`` x ``N``, CSR).
 
+    All element matrices at once: each scalar integral below is one ``einsum`` over (element,
+    test function, trial function) on the basis's own quadrature, and the three fields' blocks go
+    into one COO assembly. scikit-fem's ``BilinearForm`` would loop over the 15 x 15 pairs of P4
+    functions once per form, seven forms: several times slower for the same matrix
+    (tests/test_mindlin.py checks the two against each other)."""
+    N = basis.N
+    phi = np.stack([np.asarray(f[0]) for f in basis.basis])            # (B, E, Q)
+    grad = np.stack([f[0].grad for f in basis.basis], axis=1)          # (2, B, E, Q)
+    dX, dY, dx = grad[0], grad[1], basis.dx
 
-@BilinearForm
-def _dydx(u, v, w):           # trial d/dy, test d/dx
-    return u.grad[1] * v.grad[0]
+    def gram(a, b):               # [e, i, j] = int a_i b_j over element e (i test, j trial)
+        return np.einsum("ieq,jeq,eq->eij", a, b, dx, optimize=True)
 
-
-@BilinearForm
-def _dxdy(u, v, w):           # trial d/dx, test d/dy
-    return u.grad[0] * v.grad[1]
-
-
-@BilinearForm
-def _dx0(u, v, w):            # trial d/dx, test value
-    return u.grad[0] * v
-
-
-@BilinearForm
-def _dy0(u, v, w):            # trial d/dy, test value
-    return u.grad[1] * v
-
-
-def _matrices(basis, nu: float, tau: float, kappa: float):
-    """Stiffness ``K`` and mass ``M`` on the unknowns ``[W, beta_x, beta_y]`` (each ``basis.N``)
-    and the load vector ``f`` (``int W``) of a uniform transverse acceleration."""
-    Kxx, Kyy = _dxdx.assemble(basis), _dydy.assemble(basis)
-    Kyx, M0 = _dydx.assemble(basis), _mass.assemble(basis)
-    Gx, Gy = _dx0.assemble(basis), _dy0.assemble(basis)   # rows: beta test; cols: W trial
+    XX, YY, XY = gram(dX, dX), gram(dY, dY), gram(dX, dY)
+    MM, GX, GY = gram(phi, phi), gram(phi, dX), gram(phi, dY)
+    T = (0, 2, 1)
     a = shear_stiffness(tau, nu, kappa)
     c = 0.5 * (1.0 - nu)
     # bending, per unit D: (1 - nu) eps:eps + nu div^2 with eps_xy = (bx_y + by_x) / 2;
-    # block (test beta_y, trial beta_x) = int c bx_y by_x + nu bx_x by_y
-    Bxx = Kxx + c * Kyy
-    Byy = Kyy + c * Kxx
-    Byx = c * Kyx + nu * _dxdy.assemble(basis)   # rows beta_y test, cols beta_x trial
-    # shear, alpha |grad W - beta|^2: W-W alpha lap, beta-beta alpha mass, W-beta -alpha
-    Sww = a * (Kxx + Kyy)
-    K = sp.bmat([[Sww, -a * Gx.T, -a * Gy.T],
-                 [-a * Gx, Bxx + a * M0, Byx.T],
-                 [-a * Gy, Byx, Byy + a * M0]], format="csr")
+    # block (test beta_y, trial beta_x) = int c bx_y by_x + nu bx_x by_y.
+    # Shear, alpha |grad W - beta|^2: W-W alpha lap, beta-beta alpha mass, W-beta -alpha.
+    # Rows: test field; columns: trial field; fields in the order W, beta_x, beta_y.
+    yx = c * XY + nu * XY.transpose(T)
+    blocks = [[a * (XX + YY), -a * GX.transpose(T), -a * GY.transpose(T)],
+              [-a * GX, XX + c * YY + a * MM, yx.transpose(T)],
+              [-a * GY, yx, YY + c * XX + a * MM]]
+    Ke = np.concatenate([np.concatenate(row, axis=2) for row in blocks], axis=1)  # (E, 3B, 3B)
+    el = basis.element_dofs.T                                                        # (E, B)
+    dofs = np.concatenate([el + s * N for s in range(3)], axis=1)                    # (E, 3B)
+    K = _sparse([(Ke, dofs, dofs)], 3 * N, keep, "csc")
     r = tau ** 2 / 12.0
-    M = sp.block_diag([M0, r * M0, r * M0], format="csr")
-    f = np.concatenate([_load.assemble(basis), np.zeros(2 * basis.N)])
-    return K, M, f
+    M = _sparse([(MM, el, el), (r * MM, el + N, el + N), (r * MM, el + 2 * N, el + 2 * N)],
+                3 * N, keep)
+    M0 = _sparse([(MM, el, el)], N)
+    load = np.bincount(el.ravel(), weights=np.einsum("ieq,eq->ei", phi, dx).ravel(),
+                       minlength=N)
+    return K, M, np.concatenate([load, np.zeros(2 * N)]), M0
 
 
 def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str = "section",
@@ -150,8 +155,6 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     mesh, info = plate_mesh(beam, elements, modes, **mesh_kwargs)
     basis = Basis(mesh, DEGREES[degree]())
     N = basis.N
-    K, M, f = _matrices(basis, nu, tau, shear_factor)
-    area = float(f.sum())
 
     ymax = float(mesh.p[1].max())
     root = mesh.facets_satisfying(lambda x: x[0] < 1e-12)
@@ -162,16 +165,17 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     fixed = np.unique(np.concatenate([root_dofs, root_dofs + N, root_dofs + 2 * N,
                                       axis_dofs + 2 * N]))
     free = np.setdiff1d(np.arange(3 * N), fixed)
+    Kf, Mf, f, M0 = _matrices(basis, nu, tau, shear_factor, keep=free)
+    area = float(f.sum())
 
     # section fractions of the deflection field, on the plate's span-wise hats
     xq = np.asarray(basis.global_coordinates())[0]
+    shape_q = np.stack([np.asarray(fn[0]) for fn in basis.basis])     # (function, element, point)
     quad = SimpleNamespace(xq=xq, dx=basis.dx)
     hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
     Hw, G = _section_operators(quad, hats)
     G_lu = splu(G)
 
-    Kf = K[free][:, free].tocsr()
-    Mf = M[free][:, free].tocsr()
     # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU
     d = 1.0 / np.sqrt(Kf.diagonal())
     Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
@@ -189,17 +193,19 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
         _, vec = lanczos.eigs(k)
         phi = np.zeros((3 * N, k))
         phi[free] = vec * d[:, None]
-        # Rayleigh quotients of the unscaled fields
-        modal_mass = np.einsum("ik,ik->k", phi, M @ phi)
-        lam = np.einsum("ik,ik->k", phi, K @ phi) / modal_mass
+        # Rayleigh quotients of the unscaled fields (phi = 0 on the fixed DOFs: the free DOFs'
+        # matrices, scaled by d, act on the scaled vectors)
+        modal_mass = np.einsum("ik,ik->k", vec, Mf @ vec)
+        lam = np.einsum("ik,ik->k", vec, Kf @ vec) / modal_mass
         order = np.argsort(lam, kind="stable")
         lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
-        wq = np.stack([np.asarray(basis.interpolate(phi[:N, j])) for j in range(k)], axis=1)
-        sections = Hw @ np.transpose(wq, (0, 2, 1)).reshape(-1, k)
+        # the deflections at the quadrature points, (element, point, mode)
+        wq = np.einsum("ieq,iek->eqk", shape_q, phi[:N][basis.element_dofs], optimize=True)
+        sections = Hw @ wq.reshape(-1, k)
         # the plate's selection measures, on the deflection's own (translational) modal mass:
         # with the rotary inertia in it, both would sit lower by about (t/L)^2/12 of the
         # rotations' share and could flip a close call near 1/2 that the plate keeps
-        mass_w = np.einsum("ik,ik->k", phi[:N], M[:N, :N] @ phi[:N])
+        mass_w = np.einsum("ik,ik->k", phi[:N], M0 @ phi[:N])
         part = (f @ phi) ** 2 / (mass_w * area)
         frac = section_fraction(sections, G_lu, mass_w)
         kept, complete = select_bending(part, frac, want, selection)
