@@ -192,6 +192,7 @@ import hashlib, json, sys, time
 sys.path.insert(0, sys.argv[1])
 import numpy as np
 from prbdm.geometry import random_beam
+from prbdm.errors import BadInput
 from prbdm.truth import bending_frequencies
 seed, hw_min, modes, model = int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 beam = lambda i: random_beam(seed, i, min_half_width=hw_min)
@@ -203,7 +204,7 @@ for line in sys.stdin:
     c, w = time.process_time(), time.perf_counter()
     try:
         r = bending_frequencies(b, model, modes=modes)
-    except Exception as exc:                    # a planform the model refuses: both trees alike
+    except BadInput as exc:                     # a planform the model refuses
         print(json.dumps({"i": i, "refused": str(exc)[:80]}), flush=True)
         continue
     c, w = time.process_time() - c, time.perf_counter() - w

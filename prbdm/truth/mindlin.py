@@ -78,16 +78,16 @@ def _sparse(triplets, size: int, keep=None, fmt: str = "csr"):
     """The sum of element matrices into a ``size`` x ``size`` sparse matrix: ``triplets`` lists
     ``(values (E, a, b), row dofs (E, a), column dofs (E, b))``. With ``keep`` (ascending DOF
     numbers) only those rows and columns, renumbered in that order: the free DOFs' matrix without
-    building and slicing the whole one (the entries of the other DOFs go to (0, 0) as zeros)."""
-    if keep is not None:
-        number = np.full(size, -1)
-        number[keep] = np.arange(len(keep))
-        size = len(keep)
-        triplets = [(v * ((number[r] >= 0)[:, :, None] & (number[c] >= 0)[:, None, :]),
-                     np.maximum(number[r], 0), np.maximum(number[c], 0)) for v, r, c in triplets]
+    building and slicing the whole one."""
     rows = np.concatenate([np.broadcast_to(r[:, :, None], v.shape).ravel() for v, r, _ in triplets])
     cols = np.concatenate([np.broadcast_to(c[:, None, :], v.shape).ravel() for v, _, c in triplets])
     data = np.concatenate([v.ravel() for v, _, _ in triplets])
+    if keep is not None:
+        number = np.full(size, -1)
+        number[keep] = np.arange(len(keep))
+        rows, cols = number[rows], number[cols]
+        inside = (rows >= 0) & (cols >= 0)
+        rows, cols, data, size = rows[inside], cols[inside], data[inside], len(keep)
     return sp.coo_matrix((data, (rows, cols)), shape=(size, size)).asformat(fmt)
 
 
@@ -112,16 +112,16 @@ def _matrices(basis, nu: float, tau: float, kappa: float, keep=None):
 
     XX, YY, XY = gram(dX, dX), gram(dY, dY), gram(dX, dY)
     MM, GX, GY = gram(phi, phi), gram(phi, dX), gram(phi, dY)
-    T = (0, 2, 1)
+    swap = (0, 2, 1)                                       # test <-> trial
     a = shear_stiffness(tau, nu, kappa)
     c = 0.5 * (1.0 - nu)
     # bending, per unit D: (1 - nu) eps:eps + nu div^2 with eps_xy = (bx_y + by_x) / 2;
     # block (test beta_y, trial beta_x) = int c bx_y by_x + nu bx_x by_y.
     # Shear, alpha |grad W - beta|^2: W-W alpha lap, beta-beta alpha mass, W-beta -alpha.
     # Rows: test field; columns: trial field; fields in the order W, beta_x, beta_y.
-    yx = c * XY + nu * XY.transpose(T)
-    blocks = [[a * (XX + YY), -a * GX.transpose(T), -a * GY.transpose(T)],
-              [-a * GX, XX + c * YY + a * MM, yx.transpose(T)],
+    yx = c * XY + nu * XY.transpose(swap)
+    blocks = [[a * (XX + YY), -a * GX.transpose(swap), -a * GY.transpose(swap)],
+              [-a * GX, XX + c * YY + a * MM, yx.transpose(swap)],
               [-a * GY, yx, YY + c * XX + a * MM]]
     Ke = np.concatenate([np.concatenate(row, axis=2) for row in blocks], axis=1)  # (E, 3B, 3B)
     el = basis.element_dofs.T                                                        # (E, B)

@@ -162,7 +162,8 @@ def _rayleigh(space, phi, nu, Hw=None):
 
 
 def _scaled(A, d):
-    """``diag(d) A diag(d)`` of a CSR matrix, in place of its data."""
+    """``diag(d) A diag(d)`` of a CSR or CSC matrix (the same ``d`` on both sides, so the
+    compressed and the stored index may be rows or columns), in place of its data."""
     rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
     A.data *= d[rows] * d[A.indices]
     return A
