@@ -27,6 +27,15 @@ REFINE_ITER = 15
 ACCURACY_WARN_LOSS_PERCENT = 2.0
 ACCURACY_WARN_FREQ_PERCENT = 1.0
 
+#: full widths over length that split a checkpoint's held-out test into bands (its metadata's
+#: ``test.by_width``, written by training/train_surrogate.py): an answer quotes, and is judged by,
+#: the accuracy measured on test panels of its own width, where the checkpoint has one. One
+#: network can be within 1 % on panels 0.05-0.2 L wide and 10 % off on the paper's 0.4-1 L ones
+#: (`mindlin-n4`, docs/surrogate.md); a single number would call both rough, or both fine. A band
+#: is recorded only with at least ACCURACY_BAND_MIN_BEAMS test panels.
+ACCURACY_WIDTH_EDGES = (0.1, 0.2, 0.4)
+ACCURACY_BAND_MIN_BEAMS = 50
+
 #: `--truth auto` gives a panel to the plate network only when it is wider than this (full width
 #: over length): below it the beam network was measured closer to the plate truth than the plate
 #: network (`python benchmarks/plate_width_bands.py --data datasets/plate-n4-narrow-seed3

@@ -551,6 +551,54 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
         3 * ACCURACY_WARN_LOSS_PERCENT
 
 
+def test_the_accuracy_quoted_is_that_of_the_panels_own_width(capsys, beam_file, tmp_path,
+                                                             tiny_set):
+    """A checkpoint that recorded its test per width band (metadata ``test.by_width``) is judged,
+    and quoted, by the band of the panel asked about: fine on narrow panels, rough on wide ones
+    (as mindlin-n4 is); a batch reaching both is warned with the rough band's numbers."""
+    import dataclasses
+    import warnings
+
+    from prbdm import surrogate as sg
+    from prbdm.constants import ACCURACY_WARN_LOSS_PERCENT as LIMIT
+
+    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    R = len(meta["test"]["freq_err_median"])
+    band = lambda lo, hi, loss: {"full_width": [lo, hi], "beams": 60, "loss_median": loss,  # noqa: E731
+                                 "loss_p95": 2 * loss, "freq_err_median": [1e-3] * R}
+    meta = dict(meta, test=dict(meta["test"], loss_median=5 * LIMIT, freq_err_median=[0.05] * R,
+                                by_width=[band(0.0, 0.2, LIMIT / 4), band(0.4, None, 7 * LIMIT)]))
+    sur = sg.Surrogate(tensors, meta)
+    wide = random_beam(11, 3)
+    scale = 0.06 / (2 * wide.half_width.max() / wide.length)       # a 0.06 L wide strip
+    narrow = dataclasses.replace(wide, half_width=wide.half_width * scale)
+    middle = dataclasses.replace(wide, half_width=wide.half_width * 0.3 / (2 * wide.half_width.max()))
+    assert sur.held_out_accuracy(0.06)["loss_median_percent"] == LIMIT / 4
+    assert sur.held_out_accuracy(0.06)["full_width"] == [0.0, 0.2]
+    assert sur.held_out_accuracy(0.3)["loss_median_percent"] == 5 * LIMIT   # no band: the whole
+    assert "full_width" not in sur.held_out_accuracy(0.3)
+    assert sur.accuracy_warning(0.06) is None
+    assert "wider than 0.4 L" in sur.accuracy_warning(0.9)
+    assert sur.accuracy_warning(0.3) is not None and "L wide" not in sur.accuracy_warning(0.3)
+    assert sur.accuracy_warning() is not None                         # no width: the whole test
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sg.LowAccuracyWarning)
+        warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
+        sur.predict(narrow)                                             # quiet
+        with pytest.raises(sg.LowAccuracyWarning, match=f"median {7 * LIMIT:g} %"):
+            sur.predict([narrow, middle, wide])                         # the roughest band
+    ckpt = sg.save_checkpoint(tmp_path / "banded.safetensors", tensors, meta)
+    for beam, expect in ((narrow, None), (wide, "wider than 0.4 L")):
+        rc, out, err = run(capsys, "predict", beam_file(beam.to_dict()), "--joints", 2,
+                           "--checkpoint", ckpt, "--json")
+        r = json.loads(out)
+        notes = [w for w in r["warnings"] if "rough estimate" in w]
+        assert rc == 0
+        assert r["held_out_accuracy_at_this_width"]["loss_median_percent"] == \
+            (LIMIT / 4 if expect is None else 7 * LIMIT)
+        assert (notes == []) if expect is None else (len(notes) == 1 and expect in notes[0])
+
+
 def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_set):
     """64 bytes overwritten in the weights: exit 2 naming the file, with and without --json."""
     bad = tmp_path / "damaged.safetensors"

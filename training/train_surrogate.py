@@ -159,6 +159,7 @@ from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
+from prbdm.constants import ACCURACY_BAND_MIN_BEAMS, ACCURACY_WIDTH_EDGES  # noqa: E402
 from prbdm.dataset.schema import flatten  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
 
@@ -725,6 +726,19 @@ if len(te):
             "out_of_range_beams": int(pred.ood.any(1).sum()),
             "predict_time_s_per_beam": pred_time / len(te),
             "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
+    # the same measures per full-width band (what an answer for a panel of that width quotes,
+    # prbdm.surrogate.Surrogate.held_out_accuracy); the last band is open (hi None)
+    width = 2 * batch.w[te].max(1)
+    edges = [0.0, *ACCURACY_WIDTH_EDGES, math.inf]
+    test["by_width"] = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (width > lo) & (width <= hi)
+        if sel.sum() >= ACCURACY_BAND_MIN_BEAMS:
+            test["by_width"].append({
+                "full_width": [lo, None if math.isinf(hi) else hi], "beams": int(sel.sum()),
+                "loss_median": float(np.median(loss_net[sel])),
+                "loss_p95": float(np.percentile(loss_net[sel], 95)),
+                "freq_err_median": np.median(ferr[sel], 0).tolist()})
     meta["test"] = test
     fits = (f"optimised fits: median {test['fit_loss_median']:.4f} % p95 "
             f"{test['fit_loss_p95']:.4f} %" if has_fit else "no fits in a truth-only set")
@@ -733,6 +747,11 @@ if len(te):
         f"{test['frequency_median']:.4f} % p95 {test['frequency_p95']:.4f} %; "
         f"freq-prediction error median per mode "
         f"{[round(e * 100, 3) for e in test['freq_err_median']]} %")
+    for b in test["by_width"]:
+        log(f"  full width {b['full_width'][0]:g}-{b['full_width'][1] or 'inf'} L "
+            f"({b['beams']} beams): loss median {b['loss_median']:.4f} % p95 "
+            f"{b['loss_p95']:.4f} %; freq error median per mode "
+            f"{[round(e * 100, 3) for e in b['freq_err_median']]} %")
 sg.save_checkpoint(out_path, net.weights(), meta)
 for _p in (trial_path, trial_path.with_suffix(".json")):
     _p.unlink(missing_ok=True)

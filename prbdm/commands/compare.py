@@ -78,6 +78,7 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
+    from ..truth.choice import shear_caveat, width_ratio
     from .predict import (NARROW_PLATE, answer_or_fall_back, auto_choice, narrow_plate_reason,
                           network_truth)
 
@@ -114,7 +115,7 @@ def run(args) -> int:
         reason += f"; {narrow_plate_reason(sur)}"
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
-    notes += [w for w in (sur.accuracy_warning(),) if w]
+    notes += [w for w in (sur.accuracy_warning(width_ratio(beam)),) if w]
     if sur.truth != model and declined != NARROW_PLATE:     # narrow: the better network, chosen
         notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
                      f"truth this panel needs (`--truth auto`: {reason})")
@@ -123,7 +124,6 @@ def run(args) -> int:
 
     truth = bending_frequencies(beam, model=model, modes=max(R, n))
     omega_t = np.asarray(truth.omega, dtype=np.float64)
-    from ..truth.choice import shear_caveat
     caveat = shear_caveat(beam, truth.model)
     if caveat:
         notes.append(caveat)

@@ -135,6 +135,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
     """Everything the command prints, as a JSON-ready dict."""
     from .. import surrogate
     from ..fingerprint import beam_fingerprint
+    from ..truth.choice import width_ratio
 
     pred = checked_prediction(sur, beam, allow_extrapolation)
     batch = surrogate.BeamBatch.from_beams(beam)
@@ -146,6 +147,8 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
                  "mass": beam.mass, "stations": len(beam.x)},
         "joints": sur.joints, "modes": sur.modes, "truth": sur.truth, "law": pred.law,
         "checkpoint": sur.describe(),
+        # the checkpoint's test on panels of this one's width, where it recorded the band
+        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width_ratio(beam)),
         "source": f"network {sur.name}",     # what `prbdm export --from` records as the source
         "gamma": pred.gamma[0].tolist(), "k": pred.k[0].tolist(),
         "poses": pred.poses.tolist(),
@@ -154,7 +157,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings]
-        + [w for w in (sur.accuracy_warning(),) if w],
+        + [w for w in (sur.accuracy_warning(width_ratio(beam)),) if w],
         "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }

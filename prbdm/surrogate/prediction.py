@@ -189,23 +189,55 @@ class Surrogate:
                 "training_mode": self.metadata.get("training", {}).get("selected_mode"),
                 "held_out_accuracy": self.held_out_accuracy()}
 
-    def held_out_accuracy(self) -> dict | None:
+    def held_out_accuracy(self, width_ratio: float | None = None) -> dict | None:
         """What the training script measured on the checkpoint's test split (beams it never saw):
         the PRBDM's paper loss median and p95 [%], and the median error of each predicted truth
-        frequency [%] (the first ``modes``); None when the metadata has no test."""
+        frequency [%] (the first ``modes``); None when the metadata has no test.
+
+        ``width_ratio`` (a panel's full width over its length): the numbers of the test panels in
+        that panel's width band (``test.by_width``, prbdm.constants.ACCURACY_WIDTH_EDGES) when the
+        checkpoint recorded that band, with ``full_width`` [lo, hi] added; else the whole test's."""
         test = self.metadata.get("test") or {}
         if test.get("loss_median") is None or not test.get("freq_err_median"):
             return None
-        return {"beams": test.get("beams"), "loss_median_percent": float(test["loss_median"]),
-                "loss_p95_percent": float(test.get("loss_p95", float("nan"))),
-                "truth_frequency_error_median_percent":
-                    [100 * float(e) for e in test["freq_err_median"][:self.modes]]}
+        part, band = test, None
+        if width_ratio is not None:
+            for b in test.get("by_width") or []:
+                lo, hi = b["full_width"]
+                if lo < width_ratio <= (math.inf if hi is None else hi):
+                    part, band = b, [lo, hi]
+                    break
+        acc = {"beams": part.get("beams"), "loss_median_percent": float(part["loss_median"]),
+               "loss_p95_percent": float(part.get("loss_p95", float("nan"))),
+               "truth_frequency_error_median_percent":
+                   [100 * float(e) for e in part["freq_err_median"][:self.modes]]}
+        if band is not None:
+            acc["full_width"] = band
+        return acc
 
-    def accuracy_warning(self) -> str | None:
+    def _band_representatives(self, width_ratios) -> list:
+        """One full width (over length) of ``width_ratios`` per recorded width band they reach,
+        and one for those in none: at most a few :meth:`accuracy_warning` calls for any batch."""
+        bands = (self.metadata.get("test") or {}).get("by_width") or []
+        r = np.asarray(width_ratios, dtype=np.float64)
+        free = np.ones(len(r), dtype=bool)
+        out = []
+        for b in bands:
+            lo, hi = b["full_width"]
+            inside = free & (r > lo) & (r <= (math.inf if hi is None else hi))
+            if inside.any():
+                out.append(float(r[inside][0]))
+                free &= ~inside
+        if free.any():
+            out.append(float(r[free][0]))
+        return out
+
+    def accuracy_warning(self, width_ratio: float | None = None) -> str | None:
         """A sentence for every answer of a checkpoint whose held-out test is worse than
         prbdm.constants.ACCURACY_WARN_LOSS_PERCENT / ACCURACY_WARN_FREQ_PERCENT, else None: a
-        network that is known to be rough must not answer as if it were not."""
-        acc = self.held_out_accuracy()
+        network that is known to be rough must not answer as if it were not. With
+        ``width_ratio``, judged by the test panels of that width (:meth:`held_out_accuracy`)."""
+        acc = self.held_out_accuracy(width_ratio)
         if acc is None:
             return None
         worst = max(acc["truth_frequency_error_median_percent"])
@@ -213,8 +245,13 @@ class Surrogate:
                 and worst <= ACCURACY_WARN_FREQ_PERCENT):
             return None
         modes = ", ".join(f"{e:.2g}" for e in acc["truth_frequency_error_median_percent"])
+        where = ""
+        if "full_width" in acc:
+            lo, hi = acc["full_width"]
+            where = (f" {lo:g}-{hi:g} L wide" if hi is not None else f" wider than {lo:g} L")
         return (f"checkpoint {self.name} is a rough estimate: on {acc['beams']} held-out "
-                f"{self.truth} panels its PRBDM loss was a median {acc['loss_median_percent']:.3g} % "
+                f"{self.truth} panels{where} its PRBDM loss was a median "
+                f"{acc['loss_median_percent']:.3g} % "
                 f"(p95 {acc['loss_p95_percent']:.3g} %) and its truth frequencies a median "
                 f"[{modes}] % off (modes 1-{self.modes}; limits "
                 f"{ACCURACY_WARN_LOSS_PERCENT:g} % / {ACCURACY_WARN_FREQ_PERCENT:g} %); "
@@ -383,7 +420,14 @@ class Surrogate:
         if warn and pred.problems:
             more = f" (and {len(pred.problems) - 1} more)" if len(pred.problems) > 1 else ""
             warnings.warn(ImplausiblePredictionWarning(pred.problems[0] + more), stacklevel=2)
-        rough = self.accuracy_warning() if warn else None
+        rough = None
+        if warn:
+            # judged per width band where the checkpoint has bands: the roughest band any of
+            # these panels lies in speaks for the batch
+            widths = [None] if batch is None else self._band_representatives(2 * batch.w.max(1))
+            found = [(self.held_out_accuracy(r)["loss_median_percent"], text)
+                     for r in widths if (text := self.accuracy_warning(r))]
+            rough = max(found)[1] if found else None
         if rough:
             warnings.warn(LowAccuracyWarning(rough), stacklevel=2)
         pred.time_s = time.perf_counter() - t0
