@@ -551,51 +551,84 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
         3 * ACCURACY_WARN_LOSS_PERCENT
 
 
+def test_accuracy_by_width_bands_the_test_as_training_records_it():
+    """prbdm.surrogate.checkpoint.accuracy_by_width (training's test.by_width): bands lo < w <= hi
+    of ACCURACY_WIDTH_EDGES, the last open (None), each with enough panels, plain JSON types."""
+    from prbdm.constants import ACCURACY_BAND_MIN_BEAMS as MIN
+    from prbdm.constants import ACCURACY_WIDTH_EDGES as EDGES
+    from prbdm.surrogate.checkpoint import accuracy_by_width
+
+    # MIN panels at the first band's upper edge (inside it), MIN - 1 in the second (dropped), and
+    # MIN beyond the last edge (open band); losses and errors tell the bands apart
+    width = np.r_[[EDGES[0]] * MIN, [EDGES[1]] * (MIN - 1), [2 * EDGES[-1]] * MIN]
+    loss = np.r_[[1.0] * MIN, [2.0] * (MIN - 1), [3.0] * MIN]
+    err = np.c_[loss / 100, loss / 50]
+    bands = accuracy_by_width(width, loss, err)
+    assert [b["full_width"] for b in bands] == [[0.0, EDGES[0]], [EDGES[-1], None]]
+    assert [b["beams"] for b in bands] == [MIN, MIN]
+    assert [b["loss_median"] for b in bands] == [1.0, 3.0]
+    assert bands[1]["freq_err_median"] == [0.03, 0.06]
+    json.dumps(bands, allow_nan=False)          # JSON as it is: no numpy types, no inf
+    assert all(type(v) is float for b in bands for v in (b["loss_median"], b["loss_p95"]))
+
+
 def test_the_accuracy_quoted_is_that_of_the_panels_own_width(capsys, beam_file, tmp_path,
                                                              tiny_set):
     """A checkpoint that recorded its test per width band (metadata ``test.by_width``) is judged,
     and quoted, by the band of the panel asked about: fine on narrow panels, rough on wide ones
-    (as mindlin-n4 is); a batch reaching both is warned with the rough band's numbers."""
+    (as mindlin-n4 is); a panel in no recorded band by the whole test; a batch by its roughest
+    band, the one furthest past a limit (here by its frequencies, not the widest)."""
     import dataclasses
     import warnings
 
     from prbdm import surrogate as sg
+    from prbdm.constants import ACCURACY_WARN_FREQ_PERCENT as FLIMIT
     from prbdm.constants import ACCURACY_WARN_LOSS_PERCENT as LIMIT
 
     tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
     R = len(meta["test"]["freq_err_median"])
-    band = lambda lo, hi, loss: {"full_width": [lo, hi], "beams": 60, "loss_median": loss,  # noqa: E731
-                                 "loss_p95": 2 * loss, "freq_err_median": [1e-3] * R}
+
+    def band(lo, hi, loss, err=1e-3):
+        return {"full_width": [lo, hi], "beams": 120, "loss_median": loss,
+                "loss_p95": 2 * loss, "freq_err_median": [err] * R}
+
     meta = dict(meta, test=dict(meta["test"], loss_median=5 * LIMIT, freq_err_median=[0.05] * R,
-                                by_width=[band(0.0, 0.2, LIMIT / 4), band(0.4, None, 7 * LIMIT)]))
+                                by_width=[band(0.0, 0.1, LIMIT / 4),
+                                          band(0.1, 0.2, LIMIT / 4, err=9 * FLIMIT / 100),
+                                          band(0.4, None, 3 * LIMIT)]))
     sur = sg.Surrogate(tensors, meta)
     wide = random_beam(11, 3)
-    scale = 0.06 / (2 * wide.half_width.max() / wide.length)       # a 0.06 L wide strip
-    narrow = dataclasses.replace(wide, half_width=wide.half_width * scale)
-    middle = dataclasses.replace(wide, half_width=wide.half_width * 0.3 / (2 * wide.half_width.max()))
+
+    def of_width(ratio):
+        return dataclasses.replace(wide, half_width=wide.half_width * ratio
+                                   / (2 * wide.half_width.max() / wide.length))
+
+    narrow, ribbon, middle = of_width(0.06), of_width(0.15), of_width(0.3)
     assert sur.held_out_accuracy(0.06)["loss_median_percent"] == LIMIT / 4
-    assert sur.held_out_accuracy(0.06)["full_width"] == [0.0, 0.2]
-    assert sur.held_out_accuracy(0.3)["loss_median_percent"] == 5 * LIMIT   # no band: the whole
-    assert "full_width" not in sur.held_out_accuracy(0.3)
+    assert sur.held_out_accuracy(0.06)["full_width"] == [0.0, 0.1]
+    whole = sur.held_out_accuracy(0.3)                       # no band there: the whole test
+    assert whole["loss_median_percent"] == 5 * LIMIT and whole["full_width"] is None
     assert sur.accuracy_warning(0.06) is None
     assert "wider than 0.4 L" in sur.accuracy_warning(0.9)
+    assert "0.1-0.2 L wide" in sur.accuracy_warning(0.15)    # its frequencies
     assert sur.accuracy_warning(0.3) is not None and "L wide" not in sur.accuracy_warning(0.3)
-    assert sur.accuracy_warning() is not None                         # no width: the whole test
+    assert sur.accuracy_warning() is not None                # no width: the whole test
     with warnings.catch_warnings():
         warnings.simplefilter("error", sg.LowAccuracyWarning)
         warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
-        sur.predict(narrow)                                             # quiet
-        with pytest.raises(sg.LowAccuracyWarning, match=f"median {7 * LIMIT:g} %"):
-            sur.predict([narrow, middle, wide])                         # the roughest band
+        sur.predict(narrow)                                  # quiet
+        with pytest.raises(sg.LowAccuracyWarning, match="0.1-0.2 L wide"):
+            sur.predict([narrow, ribbon, wide])              # 9x the frequency limit beats 3x
+        with pytest.raises(sg.LowAccuracyWarning, match=f"median {5 * LIMIT:g} %"):
+            sur.predict([narrow, middle, wide])              # the whole test's 5x beats 3x
     ckpt = sg.save_checkpoint(tmp_path / "banded.safetensors", tensors, meta)
-    for beam, expect in ((narrow, None), (wide, "wider than 0.4 L")):
+    for beam, expect, loss in ((narrow, None, LIMIT / 4), (wide, "wider than 0.4 L", 3 * LIMIT)):
         rc, out, err = run(capsys, "predict", beam_file(beam.to_dict()), "--joints", 2,
                            "--checkpoint", ckpt, "--json")
         r = json.loads(out)
         notes = [w for w in r["warnings"] if "rough estimate" in w]
         assert rc == 0
-        assert r["held_out_accuracy_at_this_width"]["loss_median_percent"] == \
-            (LIMIT / 4 if expect is None else 7 * LIMIT)
+        assert r["held_out_accuracy_at_this_width"]["loss_median_percent"] == loss
         assert (notes == []) if expect is None else (len(notes) == 1 and expect in notes[0])
 
 

@@ -157,9 +157,8 @@ from prbdm import dataset as ds  # noqa: E402
 from prbdm import model  # noqa: E402
 from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
-from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
+from prbdm.surrogate.checkpoint import accuracy_by_width, member_prefixes  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
-from prbdm.constants import ACCURACY_BAND_MIN_BEAMS, ACCURACY_WIDTH_EDGES  # noqa: E402
 from prbdm.dataset.schema import flatten  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
 
@@ -726,19 +725,8 @@ if len(te):
             "out_of_range_beams": int(pred.ood.any(1).sum()),
             "predict_time_s_per_beam": pred_time / len(te),
             "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
-    # the same measures per full-width band (what an answer for a panel of that width quotes,
-    # prbdm.surrogate.Surrogate.held_out_accuracy); the last band is open (hi None)
-    width = 2 * batch.w[te].max(1)
-    edges = [0.0, *ACCURACY_WIDTH_EDGES, math.inf]
-    test["by_width"] = []
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        sel = (width > lo) & (width <= hi)
-        if sel.sum() >= ACCURACY_BAND_MIN_BEAMS:
-            test["by_width"].append({
-                "full_width": [lo, None if math.isinf(hi) else hi], "beams": int(sel.sum()),
-                "loss_median": float(np.median(loss_net[sel])),
-                "loss_p95": float(np.percentile(loss_net[sel], 95)),
-                "freq_err_median": np.median(ferr[sel], 0).tolist()})
+    # the same measures per full-width band: what an answer for a panel of that width quotes
+    test["by_width"] = accuracy_by_width(2 * batch.w[te].max(1), loss_net, ferr)
     meta["test"] = test
     fits = (f"optimised fits: median {test['fit_loss_median']:.4f} % p95 "
             f"{test['fit_loss_p95']:.4f} %" if has_fit else "no fits in a truth-only set")

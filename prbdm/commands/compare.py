@@ -167,6 +167,7 @@ def run(args) -> int:
     direct = pred.omega_truth[0][:Rd]
     out = {
         "joints": n, "modes": r, "objective": sur.objective, "checkpoint": sur.describe(),
+        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width_ratio(beam)),
         "truth": {"model": truth.model, "reason": reason, "omega": omega_t.tolist(),
                   "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},
         "network": method(pred.gamma[0], pred.k[0], pred.omega[0], t_net),

@@ -22,7 +22,9 @@ JSON (``--json``): ``gamma``, ``k`` (one per pose), ``law``, ``poses``, ``omega`
 network's direct prediction of the truth frequencies), ``links`` (the SI link table: ``joint_x``,
 ``length``, ``mass``, ``com``, ``inertia``, ``area_moment``, ``base_stiffness`` s_j and
 ``stiffness`` k_i s_j per pose [N m/rad]), ``checkpoint`` (path, name, truth, joints, data set
-size), ``truth``, ``joints``, ``modes``, ``beam``, ``source`` (``network CHECKPOINT``),
+size, ``held_out_accuracy``: its whole test), ``held_out_accuracy_at_this_width`` (its test panels
+of this panel's width band, ``full_width``; the whole test, ``full_width`` null, where it recorded
+no such band: what the rough-estimate warning judges by), ``truth``, ``joints``, ``modes``, ``beam``, ``source`` (``network CHECKPOINT``),
 ``warnings``, ``time_s`` (the prediction itself, start-up excluded). The output is a valid
 ``prbdm export BEAM --from PREDICT.json`` input, like ``prbdm fit --json``'s.
 """

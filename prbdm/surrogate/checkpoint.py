@@ -78,6 +78,31 @@ def matching_training_set(metadata: dict, spec: dict, allowed=("seed", "starts",
     return None
 
 
+def accuracy_by_width(width_ratio, loss_percent, freq_err) -> list[dict]:
+    """The held-out test per full-width band, as training records it (metadata ``test.by_width``)
+    and :meth:`prbdm.surrogate.Surrogate.held_out_accuracy` reads it: for each band ``lo < width
+    <= hi`` of prbdm.constants.ACCURACY_WIDTH_EDGES (the last open, ``hi`` None) holding at least
+    ACCURACY_BAND_MIN_BEAMS panels, their count, the PRBDM loss median and p95 [%] and the median
+    relative error of each predicted truth frequency. ``width_ratio`` (B,) full width over
+    length, ``loss_percent`` (B,), ``freq_err`` (B, R)."""
+    from ..constants import ACCURACY_BAND_MIN_BEAMS, ACCURACY_WIDTH_EDGES
+
+    width = np.asarray(width_ratio, dtype=np.float64)
+    loss = np.asarray(loss_percent, dtype=np.float64)
+    err = np.asarray(freq_err, dtype=np.float64)
+    edges = [0.0, *map(float, ACCURACY_WIDTH_EDGES), float("inf")]
+    bands = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (width > lo) & (width <= hi)
+        if sel.sum() >= ACCURACY_BAND_MIN_BEAMS:
+            bands.append({"full_width": [lo, None if hi == float("inf") else hi],
+                          "beams": int(sel.sum()),
+                          "loss_median": float(np.median(loss[sel])),
+                          "loss_p95": float(np.percentile(loss[sel], 95)),
+                          "freq_err_median": [float(e) for e in np.median(err[sel], 0)]})
+    return bands
+
+
 def weights_sha256(weights: dict) -> str:
     """sha256 of the weights, by name in sorted order: the name, the little-endian dtype and the
     shape (as JSON), then the raw little-endian bytes. It does not depend on the file's layout,

@@ -196,7 +196,8 @@ class Surrogate:
 
         ``width_ratio`` (a panel's full width over its length): the numbers of the test panels in
         that panel's width band (``test.by_width``, prbdm.constants.ACCURACY_WIDTH_EDGES) when the
-        checkpoint recorded that band, with ``full_width`` [lo, hi] added; else the whole test's."""
+        checkpoint recorded that band, ``full_width`` [lo, hi] (hi None: open); else the whole
+        test's, ``full_width`` None."""
         test = self.metadata.get("test") or {}
         if test.get("loss_median") is None or not test.get("freq_err_median"):
             return None
@@ -207,13 +208,11 @@ class Surrogate:
                 if lo < width_ratio <= (math.inf if hi is None else hi):
                     part, band = b, [lo, hi]
                     break
-        acc = {"beams": part.get("beams"), "loss_median_percent": float(part["loss_median"]),
-               "loss_p95_percent": float(part.get("loss_p95", float("nan"))),
-               "truth_frequency_error_median_percent":
-                   [100 * float(e) for e in part["freq_err_median"][:self.modes]]}
-        if band is not None:
-            acc["full_width"] = band
-        return acc
+        return {"beams": part.get("beams"), "loss_median_percent": float(part["loss_median"]),
+                "loss_p95_percent": float(part.get("loss_p95", float("nan"))),
+                "truth_frequency_error_median_percent":
+                    [100 * float(e) for e in part["freq_err_median"][:self.modes]],
+                "full_width": band}
 
     def _band_representatives(self, width_ratios) -> list:
         """One full width (over length) of ``width_ratios`` per recorded width band they reach,
@@ -232,6 +231,13 @@ class Surrogate:
             out.append(float(r[free][0]))
         return out
 
+    def _excess(self, width_ratio) -> float:
+        """How far the held-out test at this width is past the accuracy limits, as a multiple of
+        the limit it exceeds most: the roughest band of a batch is the one with the largest."""
+        acc = self.held_out_accuracy(width_ratio)
+        return max(acc["loss_median_percent"] / ACCURACY_WARN_LOSS_PERCENT,
+                   max(acc["truth_frequency_error_median_percent"]) / ACCURACY_WARN_FREQ_PERCENT)
+
     def accuracy_warning(self, width_ratio: float | None = None) -> str | None:
         """A sentence for every answer of a checkpoint whose held-out test is worse than
         prbdm.constants.ACCURACY_WARN_LOSS_PERCENT / ACCURACY_WARN_FREQ_PERCENT, else None: a
@@ -246,7 +252,7 @@ class Surrogate:
             return None
         modes = ", ".join(f"{e:.2g}" for e in acc["truth_frequency_error_median_percent"])
         where = ""
-        if "full_width" in acc:
+        if acc["full_width"] is not None:
             lo, hi = acc["full_width"]
             where = (f" {lo:g}-{hi:g} L wide" if hi is not None else f" wider than {lo:g} L")
         return (f"checkpoint {self.name} is a rough estimate: on {acc['beams']} held-out "
@@ -425,8 +431,7 @@ class Surrogate:
             # judged per width band where the checkpoint has bands: the roughest band any of
             # these panels lies in speaks for the batch
             widths = [None] if batch is None else self._band_representatives(2 * batch.w.max(1))
-            found = [(self.held_out_accuracy(r)["loss_median_percent"], text)
-                     for r in widths if (text := self.accuracy_warning(r))]
+            found = [(self._excess(r), text) for r in widths if (text := self.accuracy_warning(r))]
             rough = max(found)[1] if found else None
         if rough:
             warnings.warn(LowAccuracyWarning(rough), stacklevel=2)
