@@ -115,7 +115,8 @@ def run(args) -> int:
         reason += f"; {narrow_plate_reason(sur)}"
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
-    notes += [w for w in (sur.accuracy_warning(width_ratio(beam)),) if w]
+    width = width_ratio(beam)
+    notes += [w for w in (sur.accuracy_warning(width),) if w]
     if sur.truth != model and declined != NARROW_PLATE:     # narrow: the better network, chosen
         notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
                      f"truth this panel needs (`--truth auto`: {reason})")
@@ -167,7 +168,7 @@ def run(args) -> int:
     direct = pred.omega_truth[0][:Rd]
     out = {
         "joints": n, "modes": r, "objective": sur.objective, "checkpoint": sur.describe(),
-        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width_ratio(beam)),
+        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width),
         "truth": {"model": truth.model, "reason": reason, "omega": omega_t.tolist(),
                   "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},
         "network": method(pred.gamma[0], pred.k[0], pred.omega[0], t_net),

@@ -24,8 +24,8 @@ network's direct prediction of the truth frequencies), ``links`` (the SI link ta
 ``stiffness`` k_i s_j per pose [N m/rad]), ``checkpoint`` (path, name, truth, joints, data set
 size, ``held_out_accuracy``: its whole test), ``held_out_accuracy_at_this_width`` (its test panels
 of this panel's width band, ``full_width``; the whole test, ``full_width`` null, where it recorded
-no such band: what the rough-estimate warning judges by), ``truth``, ``joints``, ``modes``, ``beam``, ``source`` (``network CHECKPOINT``),
-``warnings``, ``time_s`` (the prediction itself, start-up excluded). The output is a valid
+no such band: what the rough-estimate warning judges by), ``truth``, ``joints``, ``modes``,
+``beam``, ``source`` (``network CHECKPOINT``), ``warnings``, ``time_s`` (the prediction itself, start-up excluded). The output is a valid
 ``prbdm export BEAM --from PREDICT.json`` input, like ``prbdm fit --json``'s.
 """
 from __future__ import annotations
@@ -140,6 +140,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
     from ..truth.choice import width_ratio
 
     pred = checked_prediction(sur, beam, allow_extrapolation)
+    width = width_ratio(beam)
     batch = surrogate.BeamBatch.from_beams(beam)
     links = surrogate.link_table(batch, pred.gamma, pred.k)
     omega = pred.omega[0]
@@ -150,7 +151,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "joints": sur.joints, "modes": sur.modes, "truth": sur.truth, "law": pred.law,
         "checkpoint": sur.describe(),
         # the checkpoint's test on panels of this one's width, where it recorded the band
-        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width_ratio(beam)),
+        "held_out_accuracy_at_this_width": sur.held_out_accuracy(width),
         "source": f"network {sur.name}",     # what `prbdm export --from` records as the source
         "gamma": pred.gamma[0].tolist(), "k": pred.k[0].tolist(),
         "poses": pred.poses.tolist(),
@@ -159,7 +160,7 @@ def predict_one(sur, beam, allow_extrapolation: bool = False) -> dict:
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
         "links": {key: v[0].tolist() for key, v in links.items()},
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings]
-        + [w for w in (sur.accuracy_warning(width_ratio(beam)),) if w],
+        + [w for w in (sur.accuracy_warning(width),) if w],
         "beam_fingerprint": beam_fingerprint(beam),   # export/simulate --from check it
         "time_s": pred.time_s,
     }

@@ -103,6 +103,18 @@ def accuracy_by_width(width_ratio, loss_percent, freq_err) -> list[dict]:
     return bands
 
 
+def width_band_index(bands: list, width_ratio) -> np.ndarray:
+    """For each full width over length in ``width_ratio``, the index in ``bands`` (a checkpoint's
+    ``test.by_width``) of the first band ``lo < width <= hi`` (``hi`` None: open) holding it, -1
+    where none does."""
+    w = np.atleast_1d(np.asarray(width_ratio, dtype=np.float64))
+    index = np.full(w.shape, -1)
+    for j, b in reversed(list(enumerate(bands))):
+        lo, hi = b["full_width"]
+        index[(w > lo) & (w <= (np.inf if hi is None else hi))] = j
+    return index
+
+
 def weights_sha256(weights: dict) -> str:
     """sha256 of the weights, by name in sorted order: the name, the little-endian dtype and the
     shape (as JSON), then the raw little-endian bytes. It does not depend on the file's layout,

@@ -26,7 +26,8 @@ import numpy as np
 
 from ..constants import ACCURACY_WARN_FREQ_PERCENT, ACCURACY_WARN_LOSS_PERCENT
 from ..errors import BadInput
-from .checkpoint import check_checkpoint, default_checkpoint, member_prefixes, read_checkpoint
+from .checkpoint import (check_checkpoint, default_checkpoint, member_prefixes, read_checkpoint,
+                         width_band_index)
 from .decode import SELECT_POSES, combine_members, concatenate_outputs, decode_numpy, silu
 from .features import CHUNK, FeatureSpec, features
 from .numpy_model import BeamBatch, prbdm_eigenvalues
@@ -203,11 +204,10 @@ class Surrogate:
             return None
         part, band = test, None
         if width_ratio is not None:
-            for b in test.get("by_width") or []:
-                lo, hi = b["full_width"]
-                if lo < width_ratio <= (math.inf if hi is None else hi):
-                    part, band = b, [lo, hi]
-                    break
+            bands = test.get("by_width") or []
+            j = int(width_band_index(bands, width_ratio)[0])
+            if j >= 0:
+                part, band = bands[j], list(bands[j]["full_width"])
         return {"beams": part.get("beams"), "loss_median_percent": float(part["loss_median"]),
                 "loss_p95_percent": float(part.get("loss_p95", float("nan"))),
                 "truth_frequency_error_median_percent":
@@ -217,19 +217,10 @@ class Surrogate:
     def _band_representatives(self, width_ratios) -> list:
         """One full width (over length) of ``width_ratios`` per recorded width band they reach,
         and one for those in none: at most a few :meth:`accuracy_warning` calls for any batch."""
-        bands = (self.metadata.get("test") or {}).get("by_width") or []
         r = np.asarray(width_ratios, dtype=np.float64)
-        free = np.ones(len(r), dtype=bool)
-        out = []
-        for b in bands:
-            lo, hi = b["full_width"]
-            inside = free & (r > lo) & (r <= (math.inf if hi is None else hi))
-            if inside.any():
-                out.append(float(r[inside][0]))
-                free &= ~inside
-        if free.any():
-            out.append(float(r[free][0]))
-        return out
+        index = width_band_index((self.metadata.get("test") or {}).get("by_width") or [], r)
+        _, first = np.unique(index, return_index=True)
+        return [float(r[i]) for i in first]
 
     def _excess(self, width_ratio) -> float:
         """How far the held-out test at this width is past the accuracy limits, as a multiple of
