@@ -549,6 +549,17 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
     assert "--truth beam" in warning[0]
     assert r["checkpoint"]["held_out_accuracy"]["loss_median_percent"] == \
         3 * ACCURACY_WARN_LOSS_PERCENT
+    # a model made from that answer says so too: export's own check compares it with the
+    # network's own omega_truth_predicted, which a rough network passes
+    pred_file = tmp_path / "rough-predict.json"
+    pred_file.write_text(out)
+    for command, extra in (("export", ("--pose", 0, "-o", tmp_path / "m.json")),
+                           ("simulate", ("--pose", 0))):
+        rc, out, err = run(capsys, command, beam_file(), "--from", pred_file, *extra, "--json")
+        assert rc == 0, err
+        carried = [w for w in json.loads(out)["warnings"] if "rough estimate" in w]
+        assert carried == [f"{pred_file} says: {warning[0]}"], command
+        assert "rough estimate" in err
 
 
 def test_accuracy_by_width_bands_the_test_as_training_records_it():
@@ -630,6 +641,24 @@ def test_the_accuracy_quoted_is_that_of_the_panels_own_width(capsys, beam_file, 
         assert rc == 0
         assert r["held_out_accuracy_at_this_width"]["loss_median_percent"] == loss
         assert (notes == []) if expect is None else (len(notes) == 1 and expect in notes[0])
+
+
+def test_fewer_members_than_tested_say_so():
+    """Surrogate.with_members(k) answers with fewer networks than its held-out test measured:
+    its accuracy says how many of each, and its rough-estimate warning that it is the fewer."""
+    from prbdm import surrogate as sg
+
+    path = sg.PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
+    if not path.is_file():
+        pytest.skip("mindlin-n4 is not shipped")
+    full = sg.load_checkpoint(path)
+    assert full.n_members == 2
+    one = full.with_members(1)
+    assert full.held_out_accuracy(0.9)["members_used"] == 2
+    acc = one.held_out_accuracy(0.9)
+    assert (acc["members_measured"], acc["members_used"]) == (2, 1)
+    assert "this answer used 1" in one.accuracy_warning(0.9)
+    assert "this answer used" not in full.accuracy_warning(0.9)
 
 
 def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_set):

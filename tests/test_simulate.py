@@ -194,7 +194,8 @@ def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
     (["--tip-deflection", "1.0"], "--tip-deflection: must be non-zero with"),
     (["--tip-deflection", "0"], "--tip-deflection: must be non-zero with"),
     (["--duration", "-1"], "--duration"),
-    (["--duration", "1000"], "--duration: at most 500"),
+    (["--duration", "1000"], "--duration: at least 3 and at most 500"),
+    (["--duration", "1e-4"], r"--duration: at least 3 .*got 0.0001 s"),   # no period to measure
     (["--plot", "x.gif"], "--plot: file must end in"),
     (["--pose", "2"], r"--pose: must be 'rest', 'linear' or a pose index in \[0, 0\]"),
     (["--damping", "2"], r"--damping: .*must lie in \[0, 1\).*got 2\.0"),
@@ -248,8 +249,8 @@ def test_simulate_refuses_a_result_for_another_beam(paper_fit):
 
     other = Beam(x=TAPERED.x, half_width=[0.18, 0.12, 0.06], thickness=0.02)
     with pytest.raises(BadInput, match="made for a different beam"):
-        simulate(other, paper_fit, periods=2)
-    info = simulate(other, paper_fit, periods=2, ignore_fingerprint=True).info
+        simulate(other, paper_fit, periods=3)
+    info = simulate(other, paper_fit, periods=3, ignore_fingerprint=True).info
     assert info["beam_fingerprint"]["match"] is False and info["check"]["ok"]
 
 

@@ -14,7 +14,8 @@ at that pose and vibrates with its frequencies; ``--springref zero`` rests it st
 ``--joints`` the fit run here uses the linear pose set by default. Before the file is written the
 model's small-vibration frequencies about its spring reference are compared with the truth (the
 result's ``omega_truth``, or a prediction's ``omega_truth_predicted``): beyond ``--tolerance``
-(default 5 %) a warning names the mode, the error and the remedy. ``--from`` a result whose
+(default 5 %) a warning names the mode, the error and the remedy. The ``--from`` result's own
+warnings (a rough or extrapolating network's) are repeated, marked with the file's name. ``--from`` a result whose
 ``beam_fingerprint`` is not the beam's is refused (exit 2) unless ``--ignore-fingerprint``. The
 file is written atomically.
 
@@ -105,12 +106,26 @@ def fit_from_args(args, beam) -> tuple[dict, list[str]]:
         if args.fit_file == "-" and args.beam == "-":
             raise BadInput("--from: BEAM and FIT.json cannot both be standard input")
         fit = load_fit(args.fit_file)
-        return fit, truth_caveat(beam, fit)
+        caveats = truth_caveat(beam, fit)
+        return fit, caveats + carried_warnings(fit, args.fit_file, caveats)
     n = args.joints
     poses, warnings = parse_poses(args.poses or args.default_poses, n)
     fit = run_fit(beam, n, modes=args.modes, law=args.law or "beam", poses=poses,
                   starts=args.starts, seed=args.seed or 0)
     return fit, warnings + truth_caveat(beam, fit)
+
+
+def carried_warnings(fit: dict, label: str, already: list[str]) -> list[str]:
+    """The warnings the ``--from`` result carries (``prbdm predict``'s rough-estimate and
+    extrapolation warnings, ``prbdm fit``'s), each marked as the result's own: they are about
+    the model written, and the export's own check cannot see them (it compares a prediction with
+    the network's own ``omega_truth_predicted``, so a rough network passes it). Those already
+    in ``already`` are not repeated."""
+    given = fit.get("warnings")
+    if not isinstance(given, list):
+        return []
+    name = "standard input" if str(label) == "-" else str(label)
+    return [f"{name} says: {w}" for w in given if isinstance(w, str) and w not in already]
 
 
 def truth_caveat(beam, fit: dict) -> list[str]:

@@ -43,7 +43,8 @@ def add_arguments(parser):
     parser.add_argument("--damping", type=finite_float(minimum=0.0), default=0.0, metavar="ZETA",
                         help="first-mode damping ratio in [0, 1) (stiffness-proportional; default 0)")
     parser.add_argument("--duration", type=finite_float(positive=True), default=None,
-                        metavar="T", help="simulated time [s] (default 20 first-mode periods)")
+                        metavar="T",
+                        help="simulated time [s]: 3 to 500 first-mode periods (default 20)")
     parser.add_argument("--truth-modes", type=positive_int(1, 100), default=20, metavar="R",
                         help="modes of the truth's modal superposition (default 20)")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
