@@ -93,41 +93,6 @@ def test_outputs_valid_by_construction():
                     assert np.all(loss_s <= loss_h + 1e-12)
 
 
-def test_frequency_branches_ordered_chosen_and_twinned():
-    """K frequency branches per mode (prbdm.surrogate.decode.frequency_branches): ascending by
-    construction, the most probable one answers (the first for the modes before branch_from),
-    NumPy and torch alike, and decode gives log omega_hat = base + that value * std + mean."""
-    from prbdm.surrogate.decode import frequency_branches, frequency_head_size
-
-    rng = np.random.default_rng(3)
-    n, m, R, K, first = 4, 6, 5, 3, 2
-    norm = {"logk_mean": np.zeros(m), "logk_std": np.ones(m),
-            "freq_mean": rng.normal(size=R), "freq_std": rng.uniform(0.5, 2, R)}
-    assert frequency_head_size(R, 1) == R and frequency_head_size(R, K) == 2 * R * K
-    out = 3 * rng.standard_normal((8, n + 1 + m + frequency_head_size(R, K)))
-    block = out[:, n + 1 + m:]
-    values, logits, chosen = frequency_branches(block.copy(), K, first)
-    assert values.shape == logits.shape == (8, R, K)
-    assert np.all(np.diff(values, axis=-1) > 0)
-    np.testing.assert_array_equal(values[..., 0], block[:, :R])
-    np.testing.assert_array_equal(chosen[:, first:], logits[:, first:].argmax(-1))
-    assert np.all(chosen[:, :first] == 0)
-    tv, tl, tc = frequency_branches(torch.as_tensor(block), K, first)
-    np.testing.assert_allclose(tv.numpy(), values, rtol=1e-12)
-    np.testing.assert_array_equal(tc.numpy(), chosen)
-    rfe = rng.normal(size=(8, R))
-    d = sg.decode_numpy(out, norm, n, "direct", rfe, branches=K, branch_from=first)
-    pick = np.take_along_axis(values, chosen[..., None], -1)[..., 0]
-    np.testing.assert_allclose(d["log_omega_hat"], rfe + pick * norm["freq_std"]
-                               + norm["freq_mean"], rtol=1e-12)
-    np.testing.assert_allclose(np.take_along_axis(d["log_omega_branches"], chosen[..., None],
-                                                  -1)[..., 0], d["log_omega_hat"], rtol=1e-12)
-    np.testing.assert_allclose(d["branch_probability"].sum(-1), 1.0, rtol=1e-12)
-    t = sg.decode_torch(torch.as_tensor(out), {k: torch.as_tensor(v) for k, v in norm.items()},
-                        n, m, "direct", torch.as_tensor(rfe), branches=K, branch_from=first)
-    np.testing.assert_allclose(t["log_omega_hat"].numpy(), d["log_omega_hat"], rtol=1e-12)
-
-
 def test_numpy_prbdm_matches_model():
     beams = [random_beam(0, i) for i in range(20)] + [
         Beam(x=[0, 0.4, 1.3], half_width=[0.2, 0.05, 0.11], thickness=0.02)]

@@ -15,7 +15,6 @@ import torch
 from prbdm import dataset as D
 from prbdm import objectives
 from prbdm import surrogate as sg
-from prbdm.errors import BadInput
 
 REPO = Path(__file__).resolve().parents[1]
 TRAINING = REPO / "training"
@@ -316,26 +315,6 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     pb = b.predict(sg.BeamBatch.from_beams(beams), warn=False)
     np.testing.assert_allclose(pb.gamma, pa.gamma, rtol=1e-4, atol=1e-6)
     np.testing.assert_allclose(pb.omega, pa.omega, rtol=1e-4)
-    # frequency branches grown from a one-valued start: it starts where the start was, its
-    # branches ordered, their probabilities a distribution, the first branch_from modes single
-    branched = tmp_path / "branched.safetensors"
-    run = script("train_surrogate.py", "--data", plate, "--out", branched, "--device", "cpu",
-                 "--init_from", start, "--lr", "1e-12", *TINY_NET, "--members", 2,
-                 "--branches", 2, "--branch_from", 1, cwd=tmp_path)
-    assert run.returncode == 0, run.stderr[-3000:]
-    c = sg.load_checkpoint(branched)
-    assert (c.branches, c.branch_from) == (2, 1)
-    assert c.metadata["network"]["branches"] == 2
-    out = c.forward(c.features(beams), sg.BeamBatch.from_beams(beams))
-    np.testing.assert_allclose(out["log_omega_hat"], a.forward(a.features(beams))["log_omega_hat"],
-                               rtol=1e-5)
-    assert np.all(np.diff(out["log_omega_branches"], axis=-1) > 0)
-    np.testing.assert_allclose(out["branch_probability"].sum(-1), 1.0, rtol=1e-12)
-    pc = c.predict(sg.BeamBatch.from_beams(beams), warn=False)
-    np.testing.assert_allclose(pc.omega, pa.omega, rtol=1e-4)
-    tensors, meta = sg.read_checkpoint(branched)     # the head's size follows the branches
-    with pytest.raises(BadInput, match="layers.1 has shape"):
-        sg.Surrogate(tensors, dict(meta, network={**meta["network"], "branches": 1}))
     before = listing(tmp_path)
     run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
                  "--init_from", start, *TINY_NET, "--width", "32", cwd=tmp_path)
@@ -349,10 +328,4 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
                  "--init_from", start, "--init_gamma", "0.4,0.3,0.3", *TINY_NET, cwd=tmp_path)
     _one_line_exit_2(run, "--init_gamma", "--init_from")
-    run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
-                 "--init_from", branched, *TINY_NET, "--branches", 3, cwd=tmp_path)
-    _one_line_exit_2(run, "--init_from", "2 frequency branches", "3")
-    run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
-                 *TINY_NET, "--branches", 2, "--branch_from", 3, cwd=tmp_path)
-    _one_line_exit_2(run, "--branch_from", "3 truth modes")
     assert listing(tmp_path) == before

@@ -76,12 +76,6 @@ SETTINGS = {
     "members": S(1, "networks trained side by side, member j from seed + j, in parallel "
                     "processes: an ensemble whose candidates are pooled"),
     "wta_eps": S(0.05, "candidates' losses: (1 - eps) * best + eps * mean"),
-    "branches": S(1, "frequency values per truth mode (K): the kept plate modes switch with the "
-                     "planform, so their frequency is two-valued; K ordered values and a "
-                     "classifier, the most probable answers (prbdm.surrogate.decode)"),
-    "branch_from": S(2, "first mode (0-based) with branches; the modes before it have one value"),
-    "branch_ce": S(0.1, "weight of the branch classifier's cross-entropy (the label: the branch "
-                        "nearest the truth) in the frequency term"),
     "init_gamma": S("", "start of candidate 0, comma-separated n+1 values (default: the mean "
                         "fitted label; equal links for a truth-only set)"),
     "batch_size": S(128, "beams per optimiser step"),
@@ -142,9 +136,6 @@ for _name in ("lr", "max_minutes"):
         _fail(f"--{_name}: must be > 0, got {globals()[_name]}")
 if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
-if not 1 <= branches <= 8 or branch_from < 0 or not branch_ce >= 0:
-    _fail(f"--branches: 1 to 8, --branch_from >= 0, --branch_ce >= 0; got {branches}, "
-          f"{branch_from}, {branch_ce}")
 if not 0 <= loss_power <= 8:
     _fail(f"--loss_power: must be in [0, 8], got {loss_power}")
 out_path = Path(out)
@@ -258,10 +249,6 @@ if init_gamma:
         _fail(f"--init_gamma: need {n + 1} comma-separated values > {sg.GAMMA_MIN}, got "
               f"{init_gamma!r}")
 
-if branches > 1 and branch_from >= min(spec["truth_modes"], rfe_segments - 1):
-    _fail(f"--branch_from: below the {min(spec['truth_modes'], rfe_segments - 1)} truth modes "
-          f"with --branches {branches}, got {branch_from}")
-
 # a start checkpoint (fine-tuning, e.g. the Kirchhoff plate's network on Mindlin labels): its
 # network and feature settings must be these, so that its weights mean the same here
 init_weights, init_meta, init_sha256 = None, None, None
@@ -294,10 +281,6 @@ if init_from:
     except (KeyError, TypeError) as exc:
         _fail(f"--init_from: {init_from} lacks {exc} in its metadata; a start checkpoint must be "
               f"one that training/train_surrogate.py wrote")
-    _start_branches = int(init_meta["network"].get("branches", 1))
-    if _start_branches not in (1, branches):
-        _fail(f"--init_from: {init_from} has {_start_branches} frequency branches, this run "
-              f"{branches}; a start must have one or as many")
     for _k, (_have, _want) in _need.items():
         if (not (np.shape(_have) == np.shape(_want)
                  and np.allclose(_have, _want, rtol=0, atol=1e-12)) if _k == "poses"
@@ -472,23 +455,8 @@ def label_terms(rows, d):
     ga = d["gamma_all"]
     lg = wta((((ga - Yg[rows][:, None]) / norm["gamma_std"]) ** 2).mean(-1)).mean()
     lk = (((d["logk"].float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
-    if d.get("corr_branches") is None:
-        dc = (d["corr"] - Yc[rows]) / norm["freq_std"]
-        lc = (dc ** 2).mean() if freq_loss == "mse" else dc.abs().mean()
-        return lg, lk, lc
-    # K ordered branches per mode: the branch nearest the truth learns it (relaxed winner takes
-    # all, as the candidates), the classifier learns which branch that is; the modes before
-    # branch_from have their first value only
-    target = ((Yc[rows] - norm["freq_mean"]) / norm["freq_std"])[..., None]
-    e = d["corr_branches"] - target
-    e = e ** 2 if freq_loss == "mse" else e.abs()
-    single = e[:, :branch_from, 0]
-    multi = e[:, branch_from:]
-    best = multi.detach().argmin(-1)
-    lc = (torch.cat([single, (1 - wta_eps) * multi.min(-1).values + wta_eps * multi.mean(-1)],
-                    dim=1).mean()
-          + branch_ce * torch.nn.functional.cross_entropy(
-              d["branch_logits"][:, branch_from:].reshape(-1, branches), best.reshape(-1)))
+    dc = (d["corr"] - Yc[rows]) / norm["freq_std"]
+    lc = (dc ** 2).mean() if freq_loss == "mse" else dc.abs().mean()
     return lg, lk, lc
 
 
@@ -521,29 +489,12 @@ def start_weights(member):
     for j, name in enumerate(names):
         if name in old_names:
             first[:, j] = w["layers.0.weight"][:, old_names.index(name)]
-    w = {**w, "layers.0.weight": first}
-    if branches > 1 and int(init_meta["network"].get("branches", 1)) == 1:
-        # a one-valued start: its frequency outputs are the lowest branch, the others start
-        # BRANCH_START standard deviations above each other, the classifiers at zero (the
-        # lowest wins ties): before the first step the network predicts what the start did
-        head = f"layers.{len([k for k in w if k.endswith('.weight')]) - 1}"
-        Wh, bh = w[head + ".weight"], w[head + ".bias"]
-        extra = R * (branches - 1) + R * branches
-        Wx = np.zeros((extra, Wh.shape[1]), dtype=np.float32)
-        bx = np.zeros(extra, dtype=np.float32)
-        bx[:R * (branches - 1)] = np.log(np.expm1(BRANCH_START))      # softplus^-1
-        w[head + ".weight"] = np.concatenate([Wh, Wx])
-        w[head + ".bias"] = np.concatenate([bh, bx])
-    return w
-
-
-#: spacing of a one-valued start's new frequency branches, in standard deviations of the label
-BRANCH_START = 0.2
+    return {**w, "layers.0.weight": first}
 
 
 def make_net(member=0):
     net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
-              hypotheses=hypotheses, branches=branches, branch_from=branch_from)
+              hypotheses=hypotheses)
     if init_meta is not None:
         return net.load_weights(start_weights(member)).to(dev)
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
@@ -717,7 +668,6 @@ meta = {
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,
-                **({"branches": branches, "branch_from": branch_from} if branches > 1 else {}),
                 "select_poses": sg.gauss_select_poses(m),
                 "parameters": int(sum(p.numel() for p in net.parameters())),
                 "outputs": "see prbdm.surrogate.decode_numpy"},

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BadInput
-from .decode import K_MODES, frequency_head_size
+from .decode import K_MODES
 from .features import FeatureSpec, feature_names
 
 CHECKPOINT_FORMAT = "prbdm-surrogate"
@@ -216,13 +216,12 @@ def member_prefixes(members: int) -> list[str]:
 def check_checkpoint(tensors: dict, metadata: dict) -> None:
     """Raise BadInput (without the file name) unless the weights and the metadata agree: every
     weight finite and floating point; each member's layers 0..L-1 chain from the feature count to
-    the head's H (n + 1) + m + R outputs (2 R K with K frequency branches); the normalisation and feature ranges finite and of the
+    the head's H (n + 1) + m + R outputs; the normalisation and feature ranges finite and of the
     feature, pose and mode counts; the poses (m, n)."""
     try:
         n = int(metadata["joints"])
         net = metadata["network"]
         members, hyp = int(net.get("members", 1)), int(net.get("hypotheses", 1))
-        branches, branch_from = int(net.get("branches", 1)), int(net.get("branch_from", 0))
         k_mode = str(net.get("k_mode", "direct"))
         spec = FeatureSpec(**metadata["features"]["spec"])
         names = list(metadata["features"]["names"])
@@ -236,9 +235,6 @@ def check_checkpoint(tensors: dict, metadata: dict) -> None:
     if n < 1 or members < 1 or hyp < 1 or not 1 <= modes <= n:
         raise BadInput(f"metadata: joints {n}, modes {modes}, members {members} or hypotheses "
                        f"{hyp} out of range")
-    if not 1 <= branches <= 8 or not 0 <= branch_from <= modes:
-        raise BadInput(f"metadata: network.branches {branches} (1-8) or branch_from "
-                       f"{branch_from} (0-{modes}) out of range")
     if k_mode not in K_MODES:
         raise BadInput(f"unknown k_mode {k_mode!r} (known: {', '.join(K_MODES)})")
     if names != feature_names(spec):
@@ -267,7 +263,7 @@ def check_checkpoint(tensors: dict, metadata: dict) -> None:
     if R < modes or R > spec.rfe_modes:
         raise BadInput(f"{R} frequency outputs, need between modes = {modes} and rfe_modes = "
                        f"{spec.rfe_modes}")
-    out = hyp * (n + 1) + m + frequency_head_size(R, branches)
+    out = hyp * (n + 1) + m + R
     expected = set()
     for pre in member_prefixes(members):
         count = len([k for k in tensors if k.startswith(pre + "layers.")

@@ -3,8 +3,7 @@ the truth frequencies, for one network or an ensemble, in NumPy (:func:`decode_n
 and torch (:func:`decode_torch`, training; torch is imported inside it only).
 
 The head of a network with H candidate segmentations is H (n + 1) gamma logits, m k outputs (one
-per pose) and R frequency corrections (or, with K frequency branches, R K ordered values and
-R K logits: :func:`frequency_branches`). Every decoded output is valid by construction:
+per pose) and R frequency corrections. Every decoded output is valid by construction:
 ``gamma = g_min + (1 - (n+1) g_min) softmax(.)`` (sum 1, each in [0.025, 0.975]), ``k = exp(.)``
 or a least-squares projection of positive eigenvalues (> 0), and
 ``log omega_hat = base + correction``, the base being ``log_omega_rfe`` (``log_omega_spread`` for
@@ -71,54 +70,8 @@ def candidate_losses(mu, lam):
     return k, 100.0 * rel.mean(-1)
 
 
-def frequency_head_size(modes: int, branches: int = 1) -> int:
-    """Outputs of the head's frequency part for R = ``modes``: R corrections, or with K =
-    ``branches`` > 1 the R K ordered branch values (:func:`frequency_branches`) and R K logits."""
-    return modes if branches == 1 else 2 * modes * branches
-
-
-def frequency_branches(block, branches: int, branch_from: int = 0):
-    """The head's frequency part (B, :func:`frequency_head_size`) -> (values (B, R, K), logits
-    (B, R, K), chosen (B, R)); NumPy or torch.
-
-    Where a kept plate mode switches with the planform (docs/surrogate.md, "Mode switching") its
-    frequency is a two-valued function of the features; one output regresses between the values.
-    So each mode from ``branch_from`` on gets K standardised values, ordered by construction
-    (the first, then softplus increments: branch j of every member and every beam is the j-th
-    lowest, so an ensemble's members can be averaged branch by branch) and K logits; the branch
-    with the largest logit is the answer. Modes before ``branch_from`` use their first value."""
-    B = block.shape[0]
-    R = block.shape[1] // (2 * branches)
-    K = branches
-    first = block[:, :R]
-    inc = block[:, R:R * K].reshape(B, R, K - 1)
-    logits = block[:, R * K:].reshape(B, R, K)
-    if isinstance(block, np.ndarray):
-        steps = np.cumsum(np.logaddexp(0.0, inc), axis=-1)
-        values = np.concatenate([first[..., None], first[..., None] + steps], axis=-1)
-        chosen = np.argmax(logits, axis=-1)
-    else:
-        import torch
-        steps = torch.cumsum(torch.nn.functional.softplus(inc), dim=-1)
-        values = torch.cat([first[..., None], first[..., None] + steps], dim=-1)
-        chosen = logits.detach().argmax(-1)
-    chosen[:, :branch_from] = 0
-    return values, logits, chosen
-
-
-def _corrections(block, branches: int, branch_from: int):
-    """(chosen standardised corrections (B, R), values, logits) of the frequency part."""
-    if branches == 1:
-        return block, None, None
-    values, logits, chosen = frequency_branches(block, branches, branch_from)
-    if isinstance(block, np.ndarray):
-        return np.take_along_axis(values, chosen[..., None], -1)[..., 0], values, logits
-    return values.gather(-1, chosen[..., None])[..., 0], values, logits
-
-
 def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None, poses=None,
-                 r=None, hypotheses: int = 1, select_poses=SELECT_POSES, branches: int = 1,
-                 branch_from: int = 0) -> dict:
+                 r=None, hypotheses: int = 1, select_poses=SELECT_POSES) -> dict:
     """The network's raw head ``out`` (B, H (n+1) + m + R) -> a dict of gamma (B, n+1), logk
     (B, m), log_omega_hat (B, R), mu (B, m, n) unit-k PRBDM eigenvalues, and with H > 1 the
     candidates ``gamma_all`` (B, H, n+1) and the chosen one ``select`` (B,).
@@ -127,8 +80,6 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
       the H candidate segmentations (``hypotheses``);
     - ``log omega_hat = base + out[:, -R:] * freq_std + freq_mean`` (base: ``FeatureSpec.base_columns``): the truth
       frequencies / sqrt(E t^2 / (rho L^4)), as a correction of the rigid-finite-element estimate;
-      with ``branches`` K > 1 the correction is the most probable of K (:func:`frequency_branches`),
-      and ``log_omega_branches`` (B, R, K) and ``branch_probability`` (B, R, K) give them all;
     - ``k``, per pose, in one of two ways (``k_mode``):
       ``direct``: ``log k = out * logk_std + logk_mean`` (H = 1 only);
       ``projection``: the least-squares SCF that matches the PRBDM's unit-k eigenvalues
@@ -147,16 +98,9 @@ def decode_numpy(out, norm: dict, joints: int, k_mode: str, rfe, x=None, w=None,
     B = out.shape[0]
     gamma_all = gamma_from_logits_np(out[:, :H * n1].reshape(B, H, n1))
     kh = out[:, H * n1:H * n1 + m]
-    corr, values, logits = _corrections(out[:, H * n1 + m:], branches, branch_from)
-    log_omega_hat = rfe + corr * norm["freq_std"] + norm["freq_mean"]
+    log_omega_hat = rfe + out[:, H * n1 + m:] * norm["freq_std"] + norm["freq_mean"]
     res = {"gamma": gamma_all[:, 0], "logk": None, "log_omega_hat": log_omega_hat, "mu": None,
-           "gamma_all": gamma_all, "select": np.zeros(B, dtype=np.int64), "candidate_loss": None,
-           "log_omega_branches": None, "branch_probability": None}
-    if values is not None:
-        res["log_omega_branches"] = (rfe[..., None] + values * norm["freq_std"][:, None]
-                                     + norm["freq_mean"][:, None])
-        z = np.exp(logits - logits.max(-1, keepdims=True))
-        res["branch_probability"] = z / z.sum(-1, keepdims=True)
+           "gamma_all": gamma_all, "select": np.zeros(B, dtype=np.int64), "candidate_loss": None}
     if k_mode == "direct":
         res["logk"] = kh * norm["logk_std"] + norm["logk_mean"]
     elif x is not None:
@@ -201,12 +145,9 @@ def combine_members(outs: list, hypotheses: int, joints: int):
 
 
 def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None, w=None,
-                 poses=None, r=None, hypotheses: int = 1, select_poses=None, branches: int = 1,
-                 branch_from: int = 0) -> dict:
+                 poses=None, r=None, hypotheses: int = 1, select_poses=None) -> dict:
     """Torch twin of :func:`decode_numpy` (differentiable; eigenvalues in float64). Also returns
-    ``mu_all`` (B, H, m, n) for the training losses, and with ``branches`` > 1 the standardised
-    branch values ``corr_branches`` and their ``branch_logits`` (B, R, K) for the frequency
-    head's label term. By default (``select_poses=None``) the
+    ``mu_all`` (B, H, m, n) for the training losses. By default (``select_poses=None``) the
     candidates are compared on every pose (all are solved for the training losses anyway): the
     rule that the Gauss poses of :func:`decode_numpy` approximate at a third of the cost."""
     import torch
@@ -219,12 +160,10 @@ def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None,
     gamma_all = GAMMA_MIN + (1 - n1 * GAMMA_MIN) * torch.softmax(
         out[:, :H * n1].reshape(B, H, n1), -1)
     kh = out[:, H * n1:H * n1 + m]
-    corr, values, logits = _corrections(out[:, H * n1 + m:], branches, branch_from)
-    log_omega_hat = rfe + corr * norm["freq_std"] + norm["freq_mean"]
+    log_omega_hat = rfe + out[:, H * n1 + m:] * norm["freq_std"] + norm["freq_mean"]
     res = {"gamma": gamma_all[:, 0], "logk": None, "log_omega_hat": log_omega_hat, "mu": None,
            "mu_all": None, "gamma_all": gamma_all,
-           "select": torch.zeros(B, dtype=torch.long),
-           "corr_branches": values, "branch_logits": logits}
+           "select": torch.zeros(B, dtype=torch.long)}
     if k_mode == "direct":
         res["logk"] = kh * norm["logk_std"] + norm["logk_mean"]
     elif x is not None:

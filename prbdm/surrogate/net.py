@@ -12,7 +12,7 @@ import torch
 from torch import nn
 
 from ..errors import BadInput
-from .decode import K_MODES, combine_members, decode_torch, frequency_head_size
+from .decode import K_MODES, combine_members, decode_torch
 
 
 class SurrogateNet(nn.Module):
@@ -21,12 +21,10 @@ class SurrogateNet(nn.Module):
     :func:`prbdm.surrogate.decode.decode_numpy`).
 
     layers: ``depth`` hidden Linear + SiLU layers of ``width`` units, then one linear head
-    of H (n + 1) + m + R outputs (H candidate segmentations, ``hypotheses``; with K frequency
-    ``branches``, 2 R K frequency outputs instead of R: prbdm.surrogate.decode)."""
+    of H (n + 1) + m + R outputs (H candidate segmentations, ``hypotheses``)."""
 
     def __init__(self, n_in: int, joints: int, poses: int, modes: int, width: int = 256,
-                 depth: int = 3, k_mode: str = "projection", hypotheses: int = 1,
-                 branches: int = 1, branch_from: int = 0):
+                 depth: int = 3, k_mode: str = "projection", hypotheses: int = 1):
         super().__init__()
         if k_mode not in K_MODES:
             raise BadInput(f"k_mode: must be one of {', '.join(K_MODES)}, got {k_mode!r}")
@@ -34,11 +32,9 @@ class SurrogateNet(nn.Module):
             raise BadInput("hypotheses > 1 needs k_mode 'projection'")
         self.joints, self.n_poses, self.modes, self.k_mode = joints, poses, modes, k_mode
         self.hypotheses = hypotheses
-        self.branches, self.branch_from = branches, branch_from
         dims = [n_in] + [width] * depth
         self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
-        self.head = nn.Linear(width, hypotheses * (joints + 1) + poses
-                              + frequency_head_size(modes, branches))
+        self.head = nn.Linear(width, hypotheses * (joints + 1) + poses + modes)
 
     def forward(self, f):
         h = f
@@ -55,8 +51,7 @@ class SurrogateNet(nn.Module):
         features; x, w (B, S) / L, poses (m, n) and the mapped mode count r are needed by
         ``k_mode = 'projection'``; candidates are compared on ``select_poses`` (all: None)."""
         return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                            poses, r, self.hypotheses, select_poses, self.branches,
-                            self.branch_from)
+                            poses, r, self.hypotheses, select_poses)
 
     def weights(self) -> dict:
         """The weights as the checkpoint stores them: layers.{i}.weight/bias, NumPy float32."""
@@ -85,7 +80,6 @@ class SurrogateEnsemble(nn.Module):
         self.joints, self.n_poses, self.modes = first.joints, first.n_poses, first.modes
         self.k_mode, self.member_hypotheses = first.k_mode, first.hypotheses
         self.hypotheses = first.hypotheses * len(members)
-        self.branches, self.branch_from = first.branches, first.branch_from
 
     def forward(self, f):
         return combine_members([net(f) for net in self.members], self.member_hypotheses,
@@ -94,8 +88,7 @@ class SurrogateEnsemble(nn.Module):
     def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
                 select_poses=None) -> dict:
         return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                            poses, r, self.hypotheses, select_poses, self.branches,
-                            self.branch_from)
+                            poses, r, self.hypotheses, select_poses)
 
     def weights(self) -> dict:
         """members.{j}.layers.{i}.weight/bias, NumPy float32."""

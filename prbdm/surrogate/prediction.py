@@ -153,9 +153,6 @@ class Surrogate:
             self.n_members = int(net.get("members", 1))
             self.hypotheses = self.member_hypotheses * self.n_members   # candidates in all
             self.select_poses = [int(i) for i in net.get("select_poses", SELECT_POSES)]
-            # frequency branches (absent from the checkpoints made before them: one)
-            self.branches = int(net.get("branches", 1))
-            self.branch_from = int(net.get("branch_from", 0))
             self.f_min = np.asarray(metadata["features"]["min"], dtype=np.float64)
             self.f_max = np.asarray(metadata["features"]["max"], dtype=np.float64)
             self.names = list(metadata["features"]["names"])
@@ -309,8 +306,7 @@ class Surrogate:
         rfe = feats[:, self.feature_spec.base_columns(len(self.norm["freq_mean"]))]
         x, w = (batch.x, batch.w) if batch is not None else (None, None)
         return decode_numpy(out, self.norm, self.joints, self.k_mode, rfe, x, w, self.poses,
-                            self.modes, self.hypotheses, self.select_poses, self.branches,
-                            self.branch_from)
+                            self.modes, self.hypotheses, self.select_poses)
 
     def check_range(self, feats: np.ndarray):
         """(B, F) bool out-of-range mask and the warning texts (at most ``20``)."""
