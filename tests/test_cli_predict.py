@@ -557,8 +557,10 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
                            ("simulate", ("--pose", 0))):
         rc, out, err = run(capsys, command, beam_file(), "--from", pred_file, *extra, "--json")
         assert rc == 0, err
-        carried = [w for w in json.loads(out)["warnings"] if "rough estimate" in w]
+        every = json.loads(out)["warnings"]
+        carried = [w for w in every if "rough estimate" in w]
         assert carried == [f"{pred_file} says: {warning[0]}"], command
+        assert len(set(every)) == len(every)           # the caveat it computes is not repeated
         assert "rough estimate" in err
 
 

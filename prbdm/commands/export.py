@@ -122,10 +122,13 @@ def carried_warnings(fit: dict, label: str, already: list[str]) -> list[str]:
     the network's own ``omega_truth_predicted``, so a rough network passes it). Those already
     in ``already`` are not repeated."""
     given = fit.get("warnings")
+    given = [given] if isinstance(given, str) else given
     if not isinstance(given, list):
         return []
     name = "standard input" if str(label) == "-" else str(label)
-    return [f"{name} says: {w}" for w in given if isinstance(w, str) and w not in already]
+    # one line each (stderr prints one per line), each once
+    texts = dict.fromkeys(" ".join(w.split()) for w in given if isinstance(w, str))
+    return [f"{name} says: {w}" for w in texts if w and w not in already]
 
 
 def truth_caveat(beam, fit: dict) -> list[str]:

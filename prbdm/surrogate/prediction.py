@@ -210,7 +210,8 @@ class Surrogate:
                 part, band = bands[j], list(bands[j]["full_width"])
         measured = int(self.metadata.get("network", {}).get("members", 1))
         return {"beams": part.get("beams"), "loss_median_percent": float(part["loss_median"]),
-                "loss_p95_percent": float(part.get("loss_p95", float("nan"))),
+                "loss_p95_percent": (None if part.get("loss_p95") is None
+                                     else float(part["loss_p95"])),
                 "truth_frequency_error_median_percent":
                     [100 * float(e) for e in part["freq_err_median"][:self.modes]],
                 "full_width": band,
@@ -252,13 +253,15 @@ class Surrogate:
             where = (f" {lo:g}-{hi:g} L wide" if hi is not None else f" wider than {lo:g} L")
         fewer = ""
         if acc["members_used"] < acc["members_measured"]:
-            fewer = (f" (measured with all {acc['members_measured']} ensemble members; this "
-                     f"answer used {acc['members_used']}, which is less accurate)")
+            fewer = (f"; measured with all {acc['members_measured']} ensemble members, this "
+                     f"answer used {acc['members_used']}, which is less accurate")
         return (f"checkpoint {self.name} is a rough estimate: on {acc['beams']} held-out "
                 f"{self.truth} panels{where} its PRBDM loss was a median "
                 f"{acc['loss_median_percent']:.3g} % "
-                f"(p95 {acc['loss_p95_percent']:.3g} %) and its truth frequencies a median "
-                f"[{modes}] % off{fewer} (modes 1-{self.modes}; limits "
+                + (f"(p95 {acc['loss_p95_percent']:.3g} %) " if acc["loss_p95_percent"] is not None
+                   else "")
+                + "and its truth frequencies a median "
+                f"[{modes}] % off (modes 1-{self.modes}{fewer}; limits "
                 f"{ACCURACY_WARN_LOSS_PERCENT:g} % / {ACCURACY_WARN_FREQ_PERCENT:g} %); "
                 f"for a faithful model use `prbdm fit BEAM --joints {self.joints}` (its "
                 f"`--truth auto` takes the truth the panel needs; `--truth {self.truth}` is "
@@ -273,7 +276,8 @@ class Surrogate:
         """The same checkpoint using only its first ``count`` ensemble members: fewer candidates
         to compare, faster, less accurate (docs/surrogate.md §5 measures both). Its
         :meth:`held_out_accuracy` is still the whole ensemble's test, with ``members_used`` below
-        ``members_measured``, and its :meth:`accuracy_warning` says so."""
+        ``members_measured``, and its :meth:`accuracy_warning`, where the ensemble's test is past
+        the limits, says so (where it is not, the fewer members give no warning)."""
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or \
                 not 1 <= count <= self.n_members:
             raise BadInput(f"members: must be an integer in [1, {self.n_members}], got {count!r}")
