@@ -79,3 +79,41 @@ def test_mindlin_features_add_the_thickness():
     f = sg.features(sg.BeamBatch.from_beams([b, thin]), spec)
     assert np.allclose(f[:, -1], np.log([b.thickness, thin.thickness]))
     assert np.allclose(f[0, :-1], f[1, :-1])
+
+
+def test_profile_features_sample_the_planform_and_old_checkpoints_keep_theirs():
+    """``profile = P``: log(w / max w) at the P cell midpoints of x / L (against np.interp),
+    floored at PROFILE_FLOOR, then the same of the load-spread width (relative to the real
+    width's maximum); appended after every other feature, so
+    the base columns and a checkpoint without it are unchanged."""
+    from prbdm.surrogate.features import PROFILE_FLOOR, spread_half_width
+
+    base = sg.FeatureSpec(cells=4, rfe_segments=12, rfe_modes=3, truth="mindlin", spread=True)
+    spec = sg.FeatureSpec(cells=4, rfe_segments=12, rfe_modes=3, truth="mindlin", spread=True,
+                          profile=10)
+    assert "profile" not in base.to_dict() and sg.FeatureSpec(**spec.to_dict()) == spec
+    names = sg.feature_names(spec)
+    assert names[:len(sg.feature_names(base))] == sg.feature_names(base)
+    assert names[-20:] == ([f"log_profile[{i}]" for i in range(10)]
+                           + [f"log_spread_profile[{i}]" for i in range(10)])
+    beams = [random_beam(1, i, min_half_width=0.01) for i in range(6)]
+    bb = sg.BeamBatch.from_beams(beams)
+    f, f0 = sg.features(bb, spec), sg.features(bb, base)
+    assert np.array_equal(f[:, :f0.shape[1]], f0)
+    xq = (np.arange(10) + 0.5) / 10
+    xs, ws = spread_half_width(bb.x, bb.w)
+    for b in range(len(bb)):
+        ratio = np.interp(xq, bb.x[b], bb.w[b]) / bb.w[b].max()
+        assert np.allclose(f[b, -20:-10], np.log(np.maximum(ratio, PROFILE_FLOOR)), atol=1e-12)
+        spread = np.interp(xq, xs[b], ws[b]) / bb.w[b].max()
+        assert np.allclose(f[b, -10:], np.log(np.maximum(spread, PROFILE_FLOOR * ws[b].max()
+                                                         / bb.w[b].max())), atol=1e-12)
+        # never above the real profile but for the tabulated spread width's linear reading
+        # across a neck narrower than its grid (spread_half_width; 0.012 at most on these)
+        assert (f[b, -10:] <= f[b, -20:-10] + 0.05).all()
+    # a neck to (almost) nothing reads as the floor, not as minus infinity
+    x, w = np.array([[0.0, 0.5, 1.0]]), np.array([[0.3, 1e-9, 0.3]])
+    tiny = sg.BeamBatch(x, w, np.ones(1), np.full(1, 0.01), np.full(1, 7e10), np.full(1, 2700.0),
+                        np.full(1, 0.3))
+    prof = sg.features(tiny, spec)[0, -20:-10]
+    assert np.isfinite(prof).all() and prof.min() >= np.log(PROFILE_FLOOR) - 1e-12

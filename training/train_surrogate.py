@@ -104,6 +104,9 @@ SETTINGS = {
     "rfe_coarse": S(16, "> 0: that estimate by Rayleigh-Ritz from a chain of this many links"),
     "spread": S(False, "add the same estimate with the 45-degree load-spread width's stiffness "
                 "(log_omega_spread, prbdm.surrogate.features) and correct that one: for plates"),
+    "profile": S(0, "> 0: add the half-width profile w / max(w) at this many points of x / L "
+                    "(log_profile, and log_spread_profile with spread): what the cell means "
+                    "blur, the necks that set the plate's higher modes"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -263,7 +266,8 @@ if init_from:
         _R = min(spec["truth_modes"], rfe_segments - 1)
         _names = sg.feature_names(sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments,
                                                  rfe_modes=_R, truth=spec["truth"],
-                                                 rfe_coarse=rfe_coarse, spread=spread))
+                                                 rfe_coarse=rfe_coarse, spread=spread,
+                                                 profile=profile))
         _poses = model.make_poses(spec["poses"], n).tolist()
         _need = {"joints": (init_meta["joints"], n), "width": (_net["width"], width),
                  "depth": (_net["depth"], depth), "k_mode": (_net["k_mode"], k_mode),
@@ -313,6 +317,15 @@ def _clean_up():
         p.unlink(missing_ok=True)
 
 
+def _feature_groups(names):
+    """'a, b[0..63]' for a list of feature names (indexed ones grouped by their stem)."""
+    groups = {}
+    for n_ in names:
+        groups.setdefault(n_.split("[")[0], []).append(n_)
+    return ", ".join(g[0] if len(g) == 1 else f"{stem}[0..{len(g) - 1}]"
+                     for stem, g in groups.items())
+
+
 def log(text, always=True):
     if always or not quiet:
         print(text, flush=True)
@@ -330,7 +343,7 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile)
 batch = sg.BeamBatch.from_table(table, material)
 feats = sg.features(batch, fspec)
 names = sg.feature_names(fspec)
@@ -381,7 +394,7 @@ if init_meta is not None:
     f_mean, f_std = norm_np["feature_mean"], norm_np["feature_std"]
     log(f"start: {_cli.portable_path(init_from)} ({init_meta.get('name')}, truth "
         f"{init_meta['truth']}); features new to it, starting at zero weight: "
-        f"{', '.join(n_ for n_ in names if n_ not in _old_names) or 'none'}")
+        f"{_feature_groups([n_ for n_ in names if n_ not in _old_names]) or 'none'}")
 # the training data lives on the training device (every row of it, once)
 norm = {k: torch.as_tensor(v, dtype=torch.float32, device=dev) for k, v in norm_np.items()}
 
@@ -664,7 +677,9 @@ meta = {
                                 + ("; mindlin adds log_thickness (t/L: the shear)"
                                    if spec["truth"] == "mindlin" else "")
                                 + ("; spread adds log_omega_spread, which depends on w/L "
-                                   "itself (the load spread's 45 degrees)" if spread else "")},
+                                   "itself (the load spread's 45 degrees)" if spread else "")
+                                + ("; profile adds log w/max(w) at points of x/L (floored at "
+                                   f"{sg.PROFILE_FLOOR})" if profile else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,

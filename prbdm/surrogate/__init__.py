@@ -31,7 +31,8 @@ from .checkpoint import (CHECKPOINT_FORMAT, CHECKPOINT_VERSION, PACKAGE_CHECKPOI
 from .decode import (GAMMA_MAX, GAMMA_MIN, K_DELTA_SCALE, K_MODES, SELECT_POSES,
                      candidate_losses, combine_members, decode_numpy, decode_torch,
                      gamma_from_logits_np, gauss_select_poses, project_k)
-from .features import CHUNK, FeatureSpec, feature_names, features, rfe_log_omega, uniform_gamma
+from .features import (CHUNK, PROFILE_FLOOR, FeatureSpec, feature_names, features, rfe_log_omega,
+                       uniform_gamma)
 from .numpy_model import (BeamBatch, link_table, loss_percent_np, prbdm_eigenvalues,
                           span_integrals)
 from .prediction import (FREQ_FACTOR, K_RANGE, OOD_MARGIN, ImplausiblePredictionWarning,
