@@ -47,7 +47,7 @@ __all__ = ["BeamBatch", "FeatureSpec", "features", "feature_names", "prbdm_eigen
            "LowAccuracyWarning",
            "save_checkpoint", "read_checkpoint", "default_checkpoint", "available_checkpoints",
            "checkpoint_name", "dataset_hash", "training_sets", "matching_training_set", "weights_sha256", "CHECKPOINT_FORMAT",
-           "CHECKPOINT_VERSION", "PACKAGE_CHECKPOINTS", "GAMMA_MIN", "GAMMA_MAX", "K_MODES",
+           "CHECKPOINT_VERSION", "PACKAGE_CHECKPOINTS", "PROFILE_FLOOR", "GAMMA_MIN", "GAMMA_MAX", "K_MODES",
            "K_DELTA_SCALE", "SELECT_POSES", "gauss_select_poses", "gamma_from_logits_np",
            "decode_numpy", "decode_torch", "combine_members", "candidate_losses", "project_k",
            "CHUNK", "OOD_MARGIN", "K_RANGE", "FREQ_FACTOR"]
