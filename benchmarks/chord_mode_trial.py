@@ -25,19 +25,7 @@ import numpy as np
 from prbdm import dataset as ds
 from prbdm import surrogate as sg
 from prbdm.geometry import Material
-
-
-def _rows_at(x, w, xq):
-    """Piecewise-linear ``w`` of each row (stations ``x`` (B, S)) at the points ``xq`` (B, P)."""
-    B, S = x.shape
-    shift = 2.0 * np.arange(B)[:, None]        # rows apart, one sorted search for all
-    j = np.searchsorted((x + shift).ravel(), (xq + shift).ravel(), side="right") - 1
-    j = np.clip(j.reshape(xq.shape) - S * np.arange(B)[:, None], 0, S - 2)
-    x0, x1 = np.take_along_axis(x, j, 1), np.take_along_axis(x, j + 1, 1)
-    w0, w1 = np.take_along_axis(w, j, 1), np.take_along_axis(w, j + 1, 1)
-    h = x1 - x0
-    u = np.divide(xq - x0, h, out=np.zeros_like(h), where=h > 0)
-    return w0 + np.clip(u, 0.0, 1.0) * (w1 - w0)
+from prbdm.surrogate.features import half_width_at
 
 
 def chord_log_omega(x, w, nu, modes: int, elements: int = 16) -> np.ndarray:
@@ -58,7 +46,7 @@ def chord_log_omega(x, w, nu, modes: int, elements: int = 16) -> np.ndarray:
     gp, gw = np.polynomial.legendre.leggauss(4)
     s = 0.5 * (gp + 1.0)
     xq = ((np.arange(N)[:, None] + s) * h).ravel()
-    wq = np.maximum(_rows_at(x, w, np.broadcast_to(xq, (B, xq.size))), 1e-4).reshape(B, N, 4)
+    wq = np.maximum(half_width_at(x, w, xq), 1e-4).reshape(B, N, 4)
     # Hermite cubics on an element, dofs (q0, q0', q1, q1')
     H = np.stack([1 - 3 * s**2 + 2 * s**3, h * (s - 2 * s**2 + s**3), 3 * s**2 - 2 * s**3,
                   h * (s**3 - s**2)], 1)

@@ -77,6 +77,23 @@ def _rfe_straight(batch_x, w, n: int, stiffness=None):
     return links, 1.0 / (6.0 * src["tributary_compliance"])              # beam law, k = 1
 
 
+def half_width_at(x, w, xq):
+    """The piecewise-linear half-widths of planforms with stations ``x`` (B, S) and half-widths
+    ``w`` (B, S) at the points ``xq`` ((P,) for every row, or (B, P)), in units of L: (B, P)."""
+    B, S = x.shape
+    xq = np.broadcast_to(xq, (B, np.shape(xq)[-1]))
+    # every row at once: the rows shifted apart (x in [0, 1]) so that one sorted search finds
+    # each point's segment in its own row
+    shift = 2.0 * np.arange(B)[:, None]
+    j = np.searchsorted((x + shift).ravel(), (xq + shift).ravel(), side="right") - 1
+    j = np.clip(j.reshape(xq.shape) - S * np.arange(B)[:, None], 0, S - 2)
+    x0, x1 = np.take_along_axis(x, j, 1), np.take_along_axis(x, j + 1, 1)
+    w0, w1 = np.take_along_axis(w, j, 1), np.take_along_axis(w, j + 1, 1)
+    h = x1 - x0
+    u = np.divide(xq - x0, h, out=np.zeros_like(h), where=h > 0)
+    return w0 + np.clip(u, 0.0, 1.0) * (w1 - w0)
+
+
 def spread_half_width(x, w, slope: float = SPREAD_SLOPE, points: int = SPREAD_POINTS):
     """The load-spread half-width ``w_s(x) = min_x' (w(x') + slope |x - x'|)`` of planforms with
     stations ``x`` (B, S) and half-widths ``w`` (B, S), both in units of L: (x_grid (B, P),
@@ -84,18 +101,8 @@ def spread_half_width(x, w, slope: float = SPREAD_SLOPE, points: int = SPREAD_PO
     station or at x' = x. Between them the chain reads it as linear, which can exceed w at a
     neck narrower than the grid spacing (1 / (P - 1) L); the trained networks' features are
     defined with this grid, so it is part of the feature, not to be refined alone."""
-    B, S = x.shape
     xg = np.linspace(0.0, 1.0, points)
-    # w at the grid points, every row at once: the rows shifted apart (x in [0, 1]) so that one
-    # sorted search finds each point's segment in its own row
-    shift = 2.0 * np.arange(B)[:, None]
-    j = np.searchsorted((x + shift).ravel(), (xg + shift).ravel(), side="right") - 1
-    j = np.clip(j.reshape(B, points) - S * np.arange(B)[:, None], 0, S - 2)
-    x0, x1 = np.take_along_axis(x, j, 1), np.take_along_axis(x, j + 1, 1)
-    w0, w1 = np.take_along_axis(w, j, 1), np.take_along_axis(w, j + 1, 1)
-    h = x1 - x0
-    u = np.divide(xg - x0, h, out=np.zeros_like(h), where=h > 0)
-    wg = w0 + np.clip(u, 0.0, 1.0) * (w1 - w0)
+    wg = half_width_at(x, w, xg)
     cone = (w[:, None, :] + slope * np.abs(xg[None, :, None] - x[:, None, :])).min(-1)
     return np.broadcast_to(xg, wg.shape), np.minimum(wg, cone)
 
@@ -202,16 +209,7 @@ def width_profile(x, w, points: int) -> np.ndarray:
     """log of ``max(w / max(w), PROFILE_FLOOR)`` at the midpoints of ``points`` equal cells of
     x / L, for planforms with stations ``x`` (B, S) and half-widths ``w`` (B, S) (piecewise
     linear between stations): (B, points)."""
-    B, S = x.shape
-    xq = np.broadcast_to((np.arange(points) + 0.5) / points, (B, points))
-    shift = 2.0 * np.arange(B)[:, None]          # rows apart (x in [0, 1]): one sorted search
-    j = np.searchsorted((x + shift).ravel(), (xq + shift).ravel(), side="right") - 1
-    j = np.clip(j.reshape(B, points) - S * np.arange(B)[:, None], 0, S - 2)
-    x0, x1 = np.take_along_axis(x, j, 1), np.take_along_axis(x, j + 1, 1)
-    w0, w1 = np.take_along_axis(w, j, 1), np.take_along_axis(w, j + 1, 1)
-    h = x1 - x0
-    u = np.divide(xq - x0, h, out=np.zeros_like(h), where=h > 0)
-    wq = w0 + np.clip(u, 0.0, 1.0) * (w1 - w0)
+    wq = half_width_at(x, w, (np.arange(points) + 0.5) / points)
     return np.log(np.maximum(wq / w.max(axis=-1, keepdims=True), PROFILE_FLOOR))
 
 
