@@ -331,9 +331,10 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
         duration = periods * T1
     if not math.isfinite(duration) or duration <= 0:
         raise BadInput(f"--duration: must be > 0 s, got {duration!r}")
+    damped = math.sqrt(1 - damping ** 2)      # damped / undamped frequency (check_damping: < 1)
     # damped periods (the tip crosses zero once per damped period); a duration of 3 periods
     # computed from another solve of the same truth may fall short by round-off
-    Td = T1 / math.sqrt(max(1 - damping ** 2, 1e-300))
+    Td = T1 / damped
     if not MIN_PERIODS * Td * (1 - 1e-3) <= duration <= MAX_PERIODS * T1:
         raise BadInput(f"--duration: at least {MIN_PERIODS} damped and at most {MAX_PERIODS} "
                        f"first-mode periods ({MIN_PERIODS * Td:.4g} to {MAX_PERIODS * T1:.4g} s), "
@@ -372,10 +373,9 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
     tm = np.linspace(0.0, duration, count_m)
     # searched about the damped first frequency: about the undamped one, a heavily damped run
     # (zeta > 0.7) lay outside the search and gave the search's edge
-    damped_by = math.sqrt(max(1 - damping ** 2, 1e-300))
-    w_prbdm = dominant_frequency(tm, chain.tip(sol.sol(tm)[:n].T)[1], omega_lin[0] * damped_by)
+    w_prbdm = dominant_frequency(tm, chain.tip(sol.sol(tm)[:n].T)[1], omega_lin[0] * damped)
     w_truth = dominant_frequency(tm, modal_tip_response(modes, tm, damping=damping, **truth_kw),
-                                 modes.omega[0] * damped_by)
+                                 modes.omega[0] * damped)
     T_prbdm, T_truth = 2 * math.pi / w_prbdm, 2 * math.pi / w_truth
     fit_err = None
     if "freq_error" in fit:
@@ -389,7 +389,6 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
     # budget of the period comparison
     truth_diff = float(abs(prep.truth[0] / modes.omega[0] - 1))
     amp = float(np.max(np.abs(tip_truth)))
-    damped = math.sqrt(max(1 - damping ** 2, 1e-300))      # damped / undamped frequency
     info = {
         "joints": n, "law": desc["law"], "pose": desc["pose"]["index"],
         "pose_theta": desc["pose"]["theta"], "k": desc["pose"]["k"],

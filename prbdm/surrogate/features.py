@@ -245,9 +245,9 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec()) -> np.ndarray:
         cols.append(np.log(batch.thickness / batch.length)[:, None])
     if spec.profile:
         cols.append(width_profile(batch.x, batch.w, spec.profile))
-    if spec.profile and spec.spread:
-        # the spread width relative to the real one's maximum: where a neck cuts the load path
-        prof = width_profile(xs, ws, spec.profile)
-        cols.append(prof + np.log(ws.max(-1) / wmax)[:, None])
+        if spec.spread:
+            # the spread width relative to the real one's maximum (its floor stays relative to
+            # its own): where a neck cuts the load path
+            cols.append(width_profile(xs, ws, spec.profile) + np.log(ws.max(-1) / wmax)[:, None])
     return np.concatenate(cols, axis=1)
 
