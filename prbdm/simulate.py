@@ -276,6 +276,21 @@ def check_damping(damping) -> None:
                        f"a simulation compares oscillation periods), got {shown!r}")
 
 
+def check_duration(duration: float, T1: float, damping: float) -> None:
+    """BadInput naming ``--duration`` unless it spans MIN_PERIODS damped to MAX_PERIODS
+    first-mode periods of the truth (``T1`` [s] undamped; the tip crosses zero once per damped
+    period, so fewer than MIN_PERIODS of those leave no period to measure)."""
+    if not math.isfinite(duration) or duration <= 0:
+        raise BadInput(f"--duration: must be > 0 s, got {duration!r}")
+    Td = T1 / math.sqrt(1 - damping ** 2)          # check_damping: damping < 1
+    # (a duration of 3 periods computed from another solve of the same truth may fall short by
+    # round-off)
+    if not MIN_PERIODS * Td * (1 - 1e-3) <= duration <= MAX_PERIODS * T1:
+        raise BadInput(f"--duration: at least {MIN_PERIODS} damped and at most {MAX_PERIODS} "
+                       f"first-mode periods ({MIN_PERIODS * Td:.4g} to {MAX_PERIODS * T1:.4g} s), "
+                       f"got {duration:g} s")
+
+
 def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
@@ -316,6 +331,12 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
             raise BadInput(f"--tip-deflection: must be non-zero with |D| <= 0.3 L = {0.3 * L:g} m, "
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
+    # the truth's modes first: a duration out of range is refused before any refit
+    modes = beam_modes(beam, truth_modes)
+    T1 = 2 * math.pi / modes.omega[0]
+    if duration is None:
+        duration = periods * T1
+    check_duration(duration, T1, damping)
     prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,
                    check_beam=check_beam)
     warnings += prep.warnings
@@ -325,20 +346,7 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
                                    truth_source=prep.truth_source, where=where_of(desc))
     warnings += bad
     chain = ChainDynamics.from_description(desc)
-    modes = beam_modes(beam, truth_modes)
-    T1 = 2 * math.pi / modes.omega[0]
-    if duration is None:
-        duration = periods * T1
-    if not math.isfinite(duration) or duration <= 0:
-        raise BadInput(f"--duration: must be > 0 s, got {duration!r}")
     damped = math.sqrt(1 - damping ** 2)      # damped / undamped frequency (check_damping: < 1)
-    # damped periods (the tip crosses zero once per damped period); a duration of 3 periods
-    # computed from another solve of the same truth may fall short by round-off
-    Td = T1 / damped
-    if not MIN_PERIODS * Td * (1 - 1e-3) <= duration <= MAX_PERIODS * T1:
-        raise BadInput(f"--duration: at least {MIN_PERIODS} damped and at most {MAX_PERIODS} "
-                       f"first-mode periods ({MIN_PERIODS * Td:.4g} to {MAX_PERIODS * T1:.4g} s), "
-                       f"got {duration:g} s")
     n = chain.n
     if kind == "tip_deflection":
         y0 = np.concatenate([chain.static_tip_shape(amount), np.zeros(n)])

@@ -229,6 +229,30 @@ def test_cli_simulate_bad_input(run, tmp_path, args, message):
     assert re.search(message, err), err
 
 
+@pytest.mark.parametrize("duration, message", [("1000", "at most 500"), ("1e-4", "at least 3")])
+def test_cli_simulate_refuses_a_bad_duration_before_the_fit(run, tmp_path, monkeypatch, duration,
+                                                            message):
+    """With --joints the fit takes seconds; a --duration out of range is refused before it (and
+    a refit from --from is not attempted either: simulate checks it before prepare)."""
+    import prbdm.export
+    import prbdm.preflight
+
+    def no_fit(*a, **k):
+        raise AssertionError("fitted before refusing --duration")
+
+    monkeypatch.setattr(prbdm.export, "run_fit", no_fit)
+    monkeypatch.setattr(prbdm.preflight, "prepare", no_fit)
+    beam = tmp_path / "beam.json"
+    beam.write_text(TAPERED.to_json())
+    rc, out, err = run("simulate", beam, "--joints", 3, "--duration", duration)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "--duration: " in err and message in err, err
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps(HAND_FIT))
+    rc, out, err = run("simulate", beam, "--from", fit, "--duration", duration)
+    assert rc == 2 and message in err and "Traceback" not in err, err
+
+
 # ----------------------------------------------------------------------------- checks before use
 @pytest.fixture(scope="module")
 def paper_fit():

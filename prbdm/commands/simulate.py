@@ -25,6 +25,7 @@ JSON (``--json``): ``period_prbdm_s``, ``period_truth_s``, ``period_error`` (rel
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from ..errors import BadInput
@@ -53,7 +54,8 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from ..simulate import check_damping, plot_simulation, simulate
+    from ..simulate import (beam_modes, check_damping, check_duration, plot_simulation,
+                            simulate)
     from .fit import _check_plot_path
 
     check_damping(args.damping)           # before the fit: an overdamped beam has no period
@@ -61,6 +63,10 @@ def run(args) -> int:
         _check_plot_path(args.plot)
         require("matplotlib", purpose="--plot")
     beam, beam_info = read_beam(args, "simulate")
+    if args.duration is not None and args.fit_file is None:
+        # before the fit (seconds): the truth's first period (milliseconds) bounds --duration
+        T1 = 2 * math.pi / beam_modes(beam, args.truth_modes).omega[0]
+        check_duration(args.duration, T1, args.damping)
     fit, warnings = fit_from_args(args, beam)
     res = simulate(beam, fit, pose=args.pose, tip_deflection=args.tip_deflection,
                    tip_impulse=args.tip_impulse, damping=args.damping, duration=args.duration,
