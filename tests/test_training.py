@@ -18,7 +18,7 @@ from prbdm import surrogate as sg
 
 REPO = Path(__file__).resolve().parents[1]
 TRAINING = REPO / "training"
-SCRIPTS = ("train_surrogate.py", "evaluate_surrogate.py", "pack_dataset.py")
+SCRIPTS = ("train_surrogate.py", "evaluate_surrogate.py", "pack_dataset.py", "retest.py")
 #: a network small and short enough to train in seconds (the runs test the plumbing, not quality)
 TINY_NET = ["--modes", "physics", "--max_epochs", "2", "--width", "16", "--depth", "1",
             "--hypotheses", "1", "--batch_size", "8", "--rfe_segments", "24", "--rfe_coarse", "0",
@@ -329,3 +329,43 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
                  "--init_from", start, "--init_gamma", "0.4,0.3,0.3", *TINY_NET, cwd=tmp_path)
     _one_line_exit_2(run, "--init_gamma", "--init_from")
     assert listing(tmp_path) == before
+
+
+# ------------------------------------------------------------------------------- retest
+@pytest.mark.parametrize("name", ["plate-n4", "mindlin-n4"])
+def test_retest_reproduces_a_shipped_checkpoints_test(name):
+    """training/retest.py rebuilds the test split from the committed data sets the metadata
+    records and measures it with training's own code (_heldout.py): every recorded figure, the
+    width bands included, comes back (mindlin-n4's recorded by train_surrogate.py itself,
+    plate-n4's added by retest.py)."""
+    path = REPO / "checkpoints" / f"{name}.safetensors"
+    before = path.read_bytes()
+    run = script("retest.py", "--checkpoint", path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "recorded test reproduced" in run.stdout and "full width 0.4-inf L" in run.stdout
+    assert path.read_bytes() == before                       # no --write: nothing written
+
+
+def test_retest_writes_the_bands_only_for_the_same_measurement(tmp_path):
+    """A checkpoint without bands gains exactly the ones recorded (weights unchanged); one whose
+    recorded test the data do not reproduce is refused: one line, exit 2, nothing written."""
+    tensors, meta = sg.read_checkpoint(REPO / "checkpoints" / "plate-n4.safetensors")
+    meta = {k: v for k, v in meta.items() if k != "weights_sha256"}
+    bands = meta["test"]["by_width"]
+    bare = sg.save_checkpoint(tmp_path / "bare.safetensors", tensors,
+                              dict(meta, test={k: v for k, v in meta["test"].items()
+                                               if k not in ("by_width", "by_width_added_by")}))
+    run = script("retest.py", "--checkpoint", bare, "--write", 1)
+    assert run.returncode == 0, run.stderr[-2000:]
+    after, meta_after = sg.read_checkpoint(bare)
+    assert meta_after["test"]["by_width"] == bands
+    assert meta_after["weights_sha256"] == sg.weights_sha256(tensors)
+    assert json.loads(bare.with_suffix(".json").read_text())["test"]["by_width"] == bands
+
+    wrong = sg.save_checkpoint(tmp_path / "wrong.safetensors", tensors,
+                               dict(meta, test=dict(meta["test"], loss_median=1.0)))
+    before = listing(tmp_path)
+    run = script("retest.py", "--checkpoint", wrong, "--write", 1)
+    _one_line_exit_2(run, "test.loss_median", "nothing written")
+    assert listing(tmp_path) == before
+

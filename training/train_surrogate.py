@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 import _cli
+import _heldout
 from _cli import Setting
 
 PROG = "train_surrogate"
@@ -160,7 +161,7 @@ from prbdm import dataset as ds  # noqa: E402
 from prbdm import model  # noqa: E402
 from prbdm import objectives  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
-from prbdm.surrogate.checkpoint import accuracy_by_width, member_prefixes  # noqa: E402
+from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
 from prbdm.dataset.schema import flatten  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
@@ -717,44 +718,10 @@ sg.save_checkpoint(trial_path, net.weights(), meta)
 sur = sg.load_checkpoint(trial_path)
 te = split["test"]
 if len(te):
-    t0 = time.perf_counter()
-    pred = sur.predict(batch.take(te), frequencies=True, warn=False)
-    pred_time = time.perf_counter() - t0
-    lam_net = (pred.omega / np.sqrt(batch.lambda0[te])[:, None, None]) ** 2
-    lam_hat_te = lam_hat[te].cpu().numpy()
-    loss_net = sg.loss_percent_np(lam_net, lam_hat_te, r)
-    freq_net = objectives.frequency_measure(torch.as_tensor(lam_net), torch.as_tensor(lam_hat_te),
-                                            r).numpy()
-    ferr = np.abs(pred.omega_truth / omega_truth[te] - 1)
     loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
-    has_fit = bool(np.isfinite(loss_fit).all())
-    test = {"beams": int(len(te)),
-            "loss_median": float(np.median(loss_net)), "loss_p95": float(np.percentile(loss_net, 95)),
-            "loss_mean": float(loss_net.mean()), "loss_max": float(loss_net.max()),
-            "frequency_median": float(np.median(freq_net)),
-            "frequency_p95": float(np.percentile(freq_net, 95)),
-            "fit_loss_median": float(np.median(loss_fit)) if has_fit else None,
-            "fit_loss_p95": float(np.percentile(loss_fit, 95)) if has_fit else None,
-            "freq_err_median": np.median(ferr, 0).tolist(),
-            "freq_err_p95": np.percentile(ferr, 95, 0).tolist(),
-            "out_of_range_beams": int(pred.ood.any(1).sum()),
-            "predict_time_s_per_beam": pred_time / len(te),
-            "evaluated_with": "prbdm.surrogate.load_checkpoint + predict (NumPy path)"}
-    # the same measures per full-width band: what an answer for a panel of that width quotes
-    test["by_width"] = accuracy_by_width(2 * batch.w[te].max(1), loss_net, ferr)
-    meta["test"] = test
-    fits = (f"optimised fits: median {test['fit_loss_median']:.4f} % p95 "
-            f"{test['fit_loss_p95']:.4f} %" if has_fit else "no fits in a truth-only set")
-    log(f"test ({len(te)} beams): PRBDM loss median {test['loss_median']:.4f} % p95 "
-        f"{test['loss_p95']:.4f} % ({fits}); frequency objective median "
-        f"{test['frequency_median']:.4f} % p95 {test['frequency_p95']:.4f} %; "
-        f"freq-prediction error median per mode "
-        f"{[round(e * 100, 3) for e in test['freq_err_median']]} %")
-    for b in test["by_width"]:
-        log(f"  full width {b['full_width'][0]:g}-{b['full_width'][1] or 'inf'} L "
-            f"({b['beams']} beams): loss median {b['loss_median']:.4f} % p95 "
-            f"{b['loss_p95']:.4f} %; freq error median per mode "
-            f"{[round(e * 100, 3) for e in b['freq_err_median']]} %")
+    meta["test"] = _heldout.test_metrics(sur, batch.take(te), omega_truth[te], r, loss_fit)
+    for _line in _heldout.describe(meta["test"]):
+        log(_line)
 sg.save_checkpoint(out_path, net.weights(), meta)
 for _p in (trial_path, trial_path.with_suffix(".json")):
     _p.unlink(missing_ok=True)

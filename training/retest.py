@@ -1,0 +1,112 @@
+"""Measure a checkpoint's held-out test again, from the data sets its metadata records.
+
+    python training/retest.py --checkpoint checkpoints/plate-n4.safetensors [--write 1]
+
+It reads each recorded set (``dataset.sets``, or the one ``dataset``) up to its recorded
+``max_index``, checks that the records are the ones the network was trained on (each set's
+sha256, prbdm.surrogate.dataset_hash; a set recorded with ``refused_by_truth`` leaves those
+records out as training did), takes the test split (index % 10 == 9) and measures it as training
+does (training/_heldout.py). The whole-test figures must equal the recorded ones: then the
+measurement is the same one and ``--write 1`` stores the result, its per-width bands (``by_width``,
+which ``predict`` quotes for a panel of that width) included, in the checkpoint (weights
+unchanged; both files rewritten whole). A checkpoint trained before the bands existed gains them
+so. Bad input or a mismatch: one line, exit status 2, nothing written.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _cli  # noqa: E402
+import _heldout  # noqa: E402
+
+PROG = "retest"
+SETTINGS = {
+    "checkpoint": _cli.Setting("", "the checkpoint to measure again (.safetensors)"),
+    "write": _cli.Setting(False, "store the measured test (by_width included) in the checkpoint"),
+    "rtol": _cli.Setting(1e-9, "relative tolerance of the recomputed whole-test figures"),
+}
+cfg = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, required=("checkpoint",))
+
+
+def _fail(message):
+    _cli.fail(PROG, message)
+
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from prbdm import dataset as ds  # noqa: E402
+from prbdm import surrogate as sg  # noqa: E402
+from prbdm.errors import BadInput  # noqa: E402
+from prbdm.surrogate.checkpoint import read_checkpoint  # noqa: E402
+
+path = Path(cfg["checkpoint"])
+try:
+    weights, meta = read_checkpoint(path)
+    sur = sg.load_checkpoint(path)
+except BadInput as exc:
+    _fail(str(exc))
+recorded = meta.get("test")
+if not recorded:
+    _fail(f"--checkpoint: {path} records no held-out test to measure again")
+
+columns = ["index", "x", "half_width", "thickness", "omega_truth", "gamma", "k", "loss_percent"]
+tables = []
+for s in sg.training_sets(meta):
+    where = _cli.find_path(s["path"])
+    try:
+        t = ds.read_table(where, columns=columns, status="ok").to_pandas()
+    except (BadInput, OSError, KeyError, ValueError) as exc:
+        _fail(f"--checkpoint: cannot read its data set {s['path']!r} "
+              f"({str(exc).splitlines()[0]})")
+    t = t[t["index"] <= s["max_index"]].reset_index(drop=True)
+    if "refused_by_truth" in s:
+        t = t[~ds.refused_by_truth(t, s["spec"])].reset_index(drop=True)
+    if sg.dataset_hash(t) != s["sha256"]:
+        _fail(f"--checkpoint: data set {s['path']} (index <= {s['max_index']}) is not the one "
+              f"{path.name} was trained on (sha256 differs)")
+    tables.append(t)
+table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
+te = np.flatnonzero(table["index"].to_numpy() % 10 == 9)
+if len(te) != recorded["beams"]:
+    _fail(f"--checkpoint: {len(te)} test beams, {path.name} records {recorded['beams']}")
+
+spec = sg.training_sets(meta)[0]["spec"]
+batch = sg.BeamBatch.from_table(table, spec["beam"]["material"]).take(te)
+R = len(sur.norm["freq_mean"])
+omega_truth = np.stack(table["omega_truth"].to_numpy())[te, :R]
+loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
+test = _heldout.test_metrics(sur, batch, omega_truth, sur.modes, loss_fit)
+
+def _same(old, new) -> bool:
+    """Equal counts and bands, floats to rtol: the same measurement (timings excepted)."""
+    if isinstance(old, dict):
+        return old.keys() <= new.keys() and all(_same(old[k], new[k]) for k in old)
+    if isinstance(old, list) and old and isinstance(old[0], dict):
+        return len(old) == len(new) and all(_same(o, n) for o, n in zip(old, new))
+    if isinstance(old, float) or (isinstance(old, list) and old and old[0] is not None
+                                  and all(isinstance(v, float) for v in old)):
+        return bool(np.allclose(new, old, rtol=cfg["rtol"], atol=0.0))
+    return old == new
+
+
+# the same measurement or none: every recorded figure but the timing (the bands where recorded)
+for key, old in recorded.items():
+    if key in ("predict_time_s_per_beam", "evaluated_with", "by_width_added_by"):
+        continue
+    if not _same(old, test[key]):
+        _fail(f"--checkpoint: recomputed test.{key} differs from the recorded one "
+              f"({str(test[key])[:80]} vs {str(old)[:80]}); not the measurement training made "
+              "(nothing written)")
+for line in _heldout.describe(test):
+    print(line)
+print(f"recorded test reproduced ({len(te)} beams, rtol {cfg['rtol']:g})")
+if cfg["write"]:
+    # the recorded timing stays (it was measured with the training machine's load)
+    meta["test"] = {**test, "predict_time_s_per_beam": recorded["predict_time_s_per_beam"],
+                    "by_width_added_by": "training/retest.py"}
+    sg.save_checkpoint(path, weights, {k: v for k, v in meta.items() if k != "weights_sha256"})
+    print(f"wrote {path} and {path.with_suffix('.json').name}: test.by_width "
+          f"({len(test['by_width'])} bands)")
