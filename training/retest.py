@@ -20,6 +20,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _cli  # noqa: E402
 import _heldout  # noqa: E402
+import _sets  # noqa: E402
 
 PROG = "retest"
 SETTINGS = {
@@ -37,7 +38,6 @@ def _fail(message):
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from prbdm import dataset as ds  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
 from prbdm.surrogate.checkpoint import read_checkpoint  # noqa: E402
@@ -52,19 +52,15 @@ recorded = meta.get("test")
 if not recorded:
     _fail(f"--checkpoint: {path} records no held-out test to measure again")
 
-columns = ["index", "x", "half_width", "thickness", "omega_truth", "gamma", "k", "loss_percent"]
 tables = []
 for s in sg.training_sets(meta):
-    where = _cli.find_path(s["path"])
+    # a set recorded without ``refused_by_truth`` was read before that filter existed
     try:
-        t = ds.read_table(where, columns=columns, status="ok").to_pandas()
-    except (BadInput, OSError, KeyError, ValueError) as exc:
-        _fail(f"--checkpoint: cannot read its data set {s['path']!r} "
-              f"({str(exc).splitlines()[0]})")
-    t = t[t["index"] <= s["max_index"]].reset_index(drop=True)
-    if "refused_by_truth" in s:
-        t = t[~ds.refused_by_truth(t, s["spec"])].reset_index(drop=True)
-    if sg.dataset_hash(t) != s["sha256"]:
+        t, record = _sets.read_set(_cli.find_path(s["path"]), s["max_index"],
+                                   refuse="refused_by_truth" in s)
+    except _sets.SetError as exc:
+        _fail(f"--checkpoint: its data set {s['path']!r}: {exc}")
+    if record["sha256"] != s["sha256"]:
         _fail(f"--checkpoint: data set {s['path']} (index <= {s['max_index']}) is not the one "
               f"{path.name} was trained on (sha256 differs)")
     tables.append(t)

@@ -50,6 +50,7 @@ import numpy as np
 
 import _cli
 import _heldout
+import _sets
 from _cli import Setting
 
 PROG = "train_surrogate"
@@ -181,16 +182,13 @@ torch.set_num_threads(threads)
 # the labels (truth, joints, modes, law, poses, fit, material) and differ only in their random
 # beams (seed, generator bounds): e.g. the paper's wide panels and a narrower range
 SAME_FIELDS = ("truth", "truth_modes", "joints", "modes", "law", "poses", "starts", "objective")
-columns = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
-           "loss_percent", "fit_time_s", "gamma_spread"]
 sets, tables = [], []
 for _d in data_sets:
     try:
-        _manifest = ds.read_manifest(_d)
-        _spec = _manifest["spec"]
-        _t = ds.read_table(_d, columns=columns, status="ok").to_pandas()
-    except (BadInput, OSError, KeyError, ValueError) as exc:
-        _fail(f"--data: cannot read the data set {_d!r} ({str(exc).splitlines()[0]})")
+        _t, _record = _sets.read_set(_d, max_index)
+    except _sets.SetError as exc:
+        _fail(f"--data: {exc}")
+    _spec = _record["spec"]
     if _spec["law"] != "beam":
         _fail(f"--data: the surrogate supports the 'beam' law only, {_d} has {_spec['law']!r}")
     if sets:
@@ -201,20 +199,7 @@ for _d in data_sets:
                 _fail(f"--data: {_d} differs from {data_sets[0]} in {_f} ({_b.get(_f)!r} vs "
                       f"{_a.get(_f)!r}); sets trained together must agree on "
                       f"{', '.join(SAME_FIELDS)}, material")
-    _read = len(_t)
-    _top = int(_t["index"].max()) if (max_index < 0 and _read) else max_index
-    _t = _t[_t["index"] <= _top].reset_index(drop=True)
-    # records whose beam today's truth refuses (e.g. plate panels with a corner sharper than its
-    # mesh resolves, labelled before that limit existed: their frequencies can be wrong)
-    _refused = ds.refused_by_truth(_t, _spec)
-    _t = _t[~_refused].reset_index(drop=True)
-    if len(_t) == 0:
-        _fail(f"--data: no ok records with index <= {_top} in {_d!r}")
-    sets.append({"path": _cli.portable_path(_d), "spec": _spec, "size": len(_t),
-                 "records_ok_read": _read, "max_index": _top,
-                 "refused_by_truth": int(_refused.sum()),
-                 "manifest_count": _manifest.get("count"), "sha256": sg.dataset_hash(_t),
-                 "dataset_git_commit": _manifest.get("git_commit")})
+    sets.append(_record)
     tables.append(_t)
 import pandas as pd  # noqa: E402
 manifest, spec = ds.read_manifest(data_sets[0]), sets[0]["spec"]

@@ -1,0 +1,52 @@
+"""The data sets a network is trained on, read as training reads them: one home for
+``train_surrogate.py``, which records each set in the checkpoint (``dataset.sets``), and
+``retest.py``, which reads them back from that record.
+
+A set's records are its ``ok`` ones with index <= ``max_index`` (-1: all), less those whose beam
+today's truth refuses (prbdm.dataset.refused_by_truth: e.g. plate panels with a corner sharper
+than the mesh resolves, labelled before that limit existed); its sha256
+(prbdm.surrogate.dataset_hash) says that two runs saw the same records.
+"""
+from __future__ import annotations
+
+import _cli
+
+#: the columns training reads
+COLUMNS = ["index", "x", "half_width", "thickness", "length", "omega_truth", "gamma", "k",
+           "loss_percent", "fit_time_s", "gamma_spread"]
+
+
+class SetError(ValueError):
+    """A data set that cannot be read or holds no records to use: the message names it."""
+
+
+def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
+    """(table, record) of the data set at ``path``: its records as a pandas DataFrame, and what a
+    checkpoint records of it (path, spec, size, records read, max_index, refused, manifest count,
+    sha256, the commit that made it). ``refuse`` False keeps the records today's truth refuses
+    (a checkpoint trained before that filter, which records no ``refused_by_truth``)."""
+    from prbdm import dataset as ds
+    from prbdm import surrogate as sg
+    from prbdm.errors import BadInput
+
+    try:
+        manifest = ds.read_manifest(path)
+        spec = manifest["spec"]
+        table = ds.read_table(path, columns=columns, status="ok").to_pandas()
+    except (BadInput, OSError, KeyError, ValueError) as exc:
+        raise SetError(f"cannot read the data set {str(path)!r} "
+                       f"({str(exc).splitlines()[0]})") from None
+    read = len(table)
+    top = int(table["index"].max()) if (max_index < 0 and read) else max_index
+    table = table[table["index"] <= top].reset_index(drop=True)
+    refused = ds.refused_by_truth(table, spec) if refuse else None
+    if refuse:
+        table = table[~refused].reset_index(drop=True)
+    if len(table) == 0:
+        raise SetError(f"no ok records with index <= {top} in {str(path)!r}")
+    record = {"path": _cli.portable_path(path), "spec": spec, "size": len(table),
+              "records_ok_read": read, "max_index": top,
+              **({"refused_by_truth": int(refused.sum())} if refuse else {}),
+              "manifest_count": manifest.get("count"), "sha256": sg.dataset_hash(table),
+              "dataset_git_commit": manifest.get("git_commit")}
+    return table, record
