@@ -62,9 +62,10 @@ def main(argv=None) -> int:
                          for x, w, th in zip(t["x"], t["half_width"], t["thickness"])])
         t = t[auto == args.auto].reset_index(drop=True)
         print(f"{len(t)} of them are {args.auto} panels for --truth auto")
-    if len(t) == 0:
-        sys.exit(f"plate_width_bands: --auto: no panel of {args.data} is a {args.auto} panel for "
-                 "--truth auto")
+        if len(t) == 0:
+            print(f"plate_width_bands: --auto: no panel of {args.data} is a {args.auto} panel "
+                  "for --truth auto", file=sys.stderr)
+            return 2
     batch = sg.BeamBatch.from_table(t, spec["beam"]["material"])
     r = spec["modes"]
     omega = np.stack(t["omega_truth"].to_numpy())[:, :r]

@@ -7,7 +7,11 @@ import math
 
 import numpy as np
 
-__all__ = ["zero_crossing_period", "dominant_frequency"]
+__all__ = ["zero_crossing_period", "dominant_frequency", "decaying_window", "damped_frequency"]
+
+#: a damped record is used while its first mode's envelope is above this fraction of its start:
+#: far above the integrator's noise (rtol 1e-9), long enough for 3.7 damped periods at zeta 0.7
+DECAY_FLOOR = 1e-7
 
 
 def zero_crossing_period(t, y) -> float:
@@ -57,3 +61,29 @@ def dominant_frequency(t, y, guess: float, span: float = 0.3) -> float:
     res = minimize_scalar(neg_fit, bounds=(max(freqs[k] - 4 * step, step), freqs[k] + 4 * step),
                           method="bounded", options={"xatol": guess * 1e-12})
     return float(res.x)
+
+
+def decaying_window(t, omega: float, zeta: float, floor: float = DECAY_FLOOR) -> np.ndarray:
+    """(T,) bool: the samples of ``t`` [s] where a first mode of natural frequency ``omega``
+    [rad/s] and damping ratio ``zeta`` still has ``floor`` of its starting envelope
+    ``exp(-zeta omega t)``: later, what is left is the integrator's noise (and, above zeta about
+    0.7, the overdamped higher modes, which then decay more slowly than the first)."""
+    t = np.asarray(t, float)
+    if zeta <= 0:
+        return np.ones(t.shape, bool)
+    return t - t[0] <= math.log(1 / floor) / (zeta * omega)
+
+
+def damped_frequency(t, y, omega: float, zeta: float, floor: float = DECAY_FLOOR) -> float:
+    """Damped first-mode frequency [rad/s] of a free response ``y`` whose first mode has natural
+    frequency about ``omega`` [rad/s] and the known damping ratio ``zeta``: the known decay
+    ``exp(-zeta omega t)`` is divided out, over :func:`decaying_window`, and the strongest
+    sinusoid is found about ``omega sqrt(1 - zeta^2)`` (:func:`dominant_frequency`). A decaying
+    record read as it is gives a period biased by its decay (1 % at zeta 0.5, 7 % at 0.7); so
+    read, the truth's measured period is within 1e-4 of its exact one up to zeta 0.7
+    (tests/test_simulate.py)."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    keep = decaying_window(t, omega, zeta, floor)
+    t, y = t[keep], y[keep]
+    return dominant_frequency(t, y * np.exp(zeta * omega * (t - t[0])),
+                              omega * math.sqrt(1 - zeta ** 2))

@@ -44,7 +44,8 @@ import numpy as np
 
 from .errors import BadInput
 from .preflight import DEFAULT_TOLERANCE
-from .signals import dominant_frequency, zero_crossing_period
+from .signals import (damped_frequency, decaying_window, dominant_frequency,
+                      zero_crossing_period)
 
 __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
            "SimulationResult", "dominant_frequency", "zero_crossing_period", "plot_simulation"]
@@ -57,6 +58,9 @@ MAX_PERIODS = 500
 MIN_PERIODS = 3
 #: most samples of the grid on which the periods are measured
 MAX_MEASURE_SAMPLES = 400_000
+#: the measured periods are reported only when the truth's measured period is this close to its
+#: exact damped period (its own check of the measurement): else they are null, with a warning
+PERIOD_MEASURE_TOLERANCE = 1e-3
 
 
 # ----------------------------------------------------------------------------- the PRBDM
@@ -283,6 +287,10 @@ def check_duration(duration: float, T1: float, damping: float) -> None:
     if not math.isfinite(duration) or duration <= 0:
         raise BadInput(f"--duration: must be > 0 s, got {duration!r}")
     Td = T1 / math.sqrt(1 - damping ** 2)          # check_damping: damping < 1
+    if MIN_PERIODS * Td > MAX_PERIODS * T1:
+        raise BadInput(f"--damping: {MIN_PERIODS} damped first-mode periods must fit in "
+                       f"{MAX_PERIODS} undamped ones (damping ratio at most "
+                       f"{math.sqrt(1 - (MIN_PERIODS / MAX_PERIODS) ** 2):.6g}), got {damping:g}")
     # (a duration of 3 periods computed from another solve of the same truth may fall short by
     # round-off)
     if not MIN_PERIODS * Td * (1 - 1e-3) <= duration <= MAX_PERIODS * T1:
@@ -291,16 +299,27 @@ def check_duration(duration: float, T1: float, damping: float) -> None:
                        f"got {duration:g} s")
 
 
+def default_duration(T1: float, damping: float, periods: float = 20.0) -> float:
+    """The simulated time [s] when none is given: ``periods`` first-mode periods of the truth
+    (``T1`` [s], undamped), and at least MIN_PERIODS + 1 damped ones (a heavily damped run)."""
+    return max(periods * T1, (MIN_PERIODS + 1) * T1 / math.sqrt(1 - damping ** 2))
+
+
 def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
-             truth_modes: int = 20, rtol: float = 1e-9, tolerance: float = DEFAULT_TOLERANCE,
+             truth_modes: int = 20, modes: "BeamModes | None" = None, rtol: float = 1e-9,
+             tolerance: float = DEFAULT_TOLERANCE,
              ignore_fingerprint: bool = False, check_beam: bool = True) -> SimulationResult:
     """Free response of the PRBDM of ``fit`` (see :func:`prbdm.export.prbdm_from_fit`; springs at
     rest straight, stiffness of pose ``pose``) and of the Euler-Bernoulli truth, from the same
     initial condition: ``tip_deflection`` [m] (default 1e-3 L) or ``tip_impulse`` [N s].
-    ``duration`` [s] (default ``periods`` first-mode periods of the truth; MIN_PERIODS to
-    MAX_PERIODS of them, else BadInput).
+    ``duration`` [s] (default :func:`default_duration`; MIN_PERIODS damped to MAX_PERIODS
+    first-mode periods of the truth, else BadInput). The first-mode periods of both are measured
+    from the tip motions (:func:`prbdm.signals.damped_frequency`) and reported where the truth's
+    measured period is within PERIOD_MEASURE_TOLERANCE of its exact one, else null with a
+    warning. ``modes``: :func:`beam_modes` of ``beam`` with ``truth_modes`` modes, when the caller
+    has them.
 
     Before the run, :func:`prbdm.preflight.prepare` checks the result's ``beam_fingerprint``
     (``check_beam``; BadInput for another beam unless ``ignore_fingerprint``) and, for
@@ -332,10 +351,11 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
     # the truth's modes first: a duration out of range is refused before any refit
-    modes = beam_modes(beam, truth_modes)
+    if modes is None:             # (the command line solved them already, for its early check)
+        modes = beam_modes(beam, truth_modes)
     T1 = 2 * math.pi / modes.omega[0]
     if duration is None:
-        duration = periods * T1
+        duration = default_duration(T1, damping, periods)
     check_duration(duration, T1, damping)
     prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,
                    check_beam=check_beam)
@@ -379,12 +399,27 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
     fast = max(omega_lin[-1], modes.omega[-1]) / modes.omega[0]
     count_m = int(min(MAX_MEASURE_SAMPLES, math.ceil(duration / T1 * 4 * fast))) + 1
     tm = np.linspace(0.0, duration, count_m)
-    # searched about the damped first frequency: about the undamped one, a heavily damped run
-    # (zeta > 0.7) lay outside the search and gave the search's edge
-    w_prbdm = dominant_frequency(tm, chain.tip(sol.sol(tm)[:n].T)[1], omega_lin[0] * damped)
-    w_truth = dominant_frequency(tm, modal_tip_response(modes, tm, damping=damping, **truth_kw),
-                                 modes.omega[0] * damped)
+    # each model's known first-mode decay divided out (signals.damped_frequency): read as it is,
+    # a decaying record gives a period biased by its decay, alike in both models, so that their
+    # difference looked right while both were wrong (7 % at zeta 0.7)
+    w_prbdm = damped_frequency(tm, chain.tip(sol.sol(tm)[:n].T)[1], omega_lin[0], damping)
+    w_truth = damped_frequency(tm, modal_tip_response(modes, tm, damping=damping, **truth_kw),
+                               modes.omega[0], damping)
     T_prbdm, T_truth = 2 * math.pi / w_prbdm, 2 * math.pi / w_truth
+    T_exact = T1 / damped
+    # the truth's exact damped period checks the measurement itself: where it fails (zeta above
+    # about 0.75, where overdamped higher modes outlast the first) no period is reported
+    measured = abs(T_truth / T_exact - 1) <= PERIOD_MEASURE_TOLERANCE
+    if not measured:
+        warnings.append(
+            f"at damping ratio {damping:g} the first-mode period cannot be measured from the tip "
+            f"motion (the truth's measured period is {100 * (T_truth / T_exact - 1):+.2g} % off "
+            f"its exact {T_exact:.6g} s): the measured periods and period_error are null; "
+            "compare the linear periods (period_prbdm_linear_s, period_truth_exact_s) or a "
+            "smaller --damping")
+    # zero crossings while the first mode's envelope is above the integrator's noise (later,
+    # noise crossings gave periods 90 % short)
+    live = decaying_window(t, modes.omega[0], damping)
     fit_err = None
     if "freq_error" in fit:
         try:
@@ -404,14 +439,16 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
         "samples": int(count), "measure_samples": int(count_m),
         "omega_prbdm_linear": omega_lin.tolist(),
         "omega_truth": modes.omega.tolist(),
-        "period_prbdm_s": T_prbdm, "period_truth_s": T_truth,
-        "period_truth_exact_s": T1 / damped,
+        "period_prbdm_s": T_prbdm if measured else None,
+        "period_truth_s": T_truth if measured else None,
+        "period_truth_exact_s": T_exact,
         "period_prbdm_linear_s": 2 * math.pi / omega_lin[0] / damped,
         # null where the tip crossed zero upwards fewer than twice (a heavily damped run)
-        "period_zero_crossings_s": {key: (None if math.isnan(v) else v) for key, v in (
-            ("prbdm", zero_crossing_period(t, tip_prbdm)),
-            ("truth", zero_crossing_period(t, tip_truth)))},
-        "period_error": abs(T_prbdm - T_truth) / T_truth,
+        "period_zero_crossings_s": {key: (None if math.isnan(v) or not measured else v)
+                                    for key, v in (
+            ("prbdm", zero_crossing_period(t[live], tip_prbdm[live])),
+            ("truth", zero_crossing_period(t[live], tip_truth[live])))},
+        "period_error": abs(T_prbdm - T_truth) / T_truth if measured else None,
         "fit_freq_error_mode1": fit_err,
         "fit_truth_difference_mode1": truth_diff,
         "max_tip_difference": float(np.max(np.abs(tip_prbdm - tip_truth)) / amp),

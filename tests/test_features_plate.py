@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from prbdm import surrogate as sg
 from prbdm.geometry import random_beam
@@ -111,9 +112,12 @@ def test_profile_features_sample_the_planform_and_old_checkpoints_keep_theirs():
         # never above the real profile but for the tabulated spread width's linear reading
         # across a neck narrower than its grid (spread_half_width; 0.012 at most on these)
         assert (f[b, -10:] <= f[b, -20:-10] + 0.05).all()
-    # a neck to (almost) nothing reads as the floor, not as minus infinity
-    x, w = np.array([[0.0, 0.5, 1.0]]), np.array([[0.3, 1e-9, 0.3]])
+    # a neck to (almost) nothing, over two sample points (x/L 0.45 and 0.55), reads as the floor
+    # there, not as minus infinity
+    x, w = np.array([[0.0, 0.4, 0.6, 1.0]]), np.array([[0.3, 1e-9, 1e-9, 0.3]])
     tiny = sg.BeamBatch(x, w, np.ones(1), np.full(1, 0.01), np.full(1, 7e10), np.full(1, 2700.0),
                         np.full(1, 0.3))
-    prof = sg.features(tiny, spec)[0, -20:-10]
-    assert np.isfinite(prof).all() and prof.min() >= np.log(PROFILE_FLOOR) - 1e-12
+    f = sg.features(tiny, spec)[0]
+    assert np.isfinite(f).all()
+    assert f[-20:-10][[4, 5]] == pytest.approx([np.log(PROFILE_FLOOR)] * 2, abs=1e-12)
+    assert f[-20:-10].min() >= np.log(PROFILE_FLOOR) - 1e-12

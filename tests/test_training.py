@@ -369,3 +369,28 @@ def test_retest_writes_the_bands_only_for_the_same_measurement(tmp_path):
     _one_line_exit_2(run, "test.loss_median", "nothing written")
     assert listing(tmp_path) == before
 
+
+def test_retest_measures_a_fresh_checkpoint_alike(tmp_path, tiny_data):
+    """A checkpoint trained today on one set records what retest needs (refused_by_truth
+    included: without it the set was read unfiltered and its sha256 differed), and retest
+    reproduces its test; a checkpoint that records no data set, or a test figure retest does not
+    make, is refused with one line."""
+    out = tmp_path / "net.safetensors"
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--device", "cpu",
+                 *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    tensors, meta = sg.read_checkpoint(out)
+    assert "refused_by_truth" in meta["dataset"]
+    run = script("retest.py", "--checkpoint", out)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "recorded test reproduced (2 beams" in run.stdout
+
+    meta = {k: v for k, v in meta.items() if k != "weights_sha256"}
+    for name, changed, words in (
+            ("nodata", {k: v for k, v in meta.items() if k != "dataset"}, ["does not record"]),
+            ("extra", dict(meta, test=dict(meta["test"], extra_key=1.0)), ["test.extra_key"])):
+        bad = sg.save_checkpoint(tmp_path / f"{name}.safetensors", tensors, changed)
+        before = listing(tmp_path)
+        _one_line_exit_2(script("retest.py", "--checkpoint", bad), *words)
+        assert listing(tmp_path) == before
+

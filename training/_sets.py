@@ -50,3 +50,14 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
               "manifest_count": manifest.get("count"), "sha256": sg.dataset_hash(table),
               "dataset_git_commit": manifest.get("git_commit")}
     return table, record
+
+
+def split(index) -> dict:
+    """Row positions of the test (``index % 10 == 9``), validation (``== 8``) and training (the
+    rest) beams, from the records' ``index``: a beam's split depends on its index alone, so
+    every run and every later measurement of a set splits it alike."""
+    import numpy as np
+
+    index = np.asarray(index)
+    return {"test": np.flatnonzero(index % 10 == 9), "val": np.flatnonzero(index % 10 == 8),
+            "train": np.flatnonzero(index % 10 < 8)}

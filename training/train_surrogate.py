@@ -355,9 +355,7 @@ log(f"data {data}: {records_read} ok records, {N} with index <= {max_index} and 
     f"{'fitted labels' if labelled else 'truth only (no fitted labels)'}; sha256 {sha[:16]}")
 
 # ------------------------------------------------------------------------------- 2. split
-idx = table["index"].to_numpy()
-split = {"test": np.flatnonzero(idx % 10 == 9), "val": np.flatnonzero(idx % 10 == 8)}
-split["train"] = np.flatnonzero(idx % 10 < 8)
+split = _sets.split(table["index"].to_numpy())
 log("split " + ", ".join(f"{k} {len(v)}" for k, v in split.items()))
 tr = split["train"]
 f_mean, f_std = feats[tr].mean(0), np.maximum(feats[tr].std(0), 1e-6)
@@ -674,6 +672,7 @@ meta = {
                 "outputs": "see prbdm.surrogate.decode_numpy"},
     "dataset": {"path": _cli.portable_path(data), "spec": spec, "size": N,
                 "records_ok_read": records_read, "max_index": max_index,
+                "refused_by_truth": sum(s_["refused_by_truth"] for s_ in sets),
                 "manifest_count": manifest.get("count"), "sha256": sha,
                 "sha256_of": "sorted index + x, half_width, thickness, omega_truth, gamma, k "
                              "(prbdm.surrogate.dataset_hash)",
