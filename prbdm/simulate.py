@@ -44,7 +44,7 @@ import numpy as np
 
 from .errors import BadInput
 from .preflight import DEFAULT_TOLERANCE
-from .signals import (damped_frequency, decaying_window, dominant_frequency,
+from .signals import (CROSSING_FLOOR, damped_frequency, decaying_window, dominant_frequency,
                       zero_crossing_period)
 
 __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
@@ -61,6 +61,8 @@ MAX_MEASURE_SAMPLES = 400_000
 #: the measured periods are reported only when the truth's measured period is this close to its
 #: exact damped period (its own check of the measurement): else they are null, with a warning
 PERIOD_MEASURE_TOLERANCE = 1e-3
+#: a zero-crossing period is reported only within this of its model's measured period
+CROSSING_TOLERANCE = 0.01
 
 
 # ----------------------------------------------------------------------------- the PRBDM
@@ -289,7 +291,7 @@ def check_duration(duration: float, T1: float, damping: float) -> None:
     Td = T1 / math.sqrt(1 - damping ** 2)          # check_damping: damping < 1
     if MIN_PERIODS * Td > MAX_PERIODS * T1:
         raise BadInput(f"--damping: {MIN_PERIODS} damped first-mode periods must fit in "
-                       f"{MAX_PERIODS} undamped ones (damping ratio at most "
+                       f"{MAX_PERIODS} undamped ones (damping ratio below "
                        f"{math.sqrt(1 - (MIN_PERIODS / MAX_PERIODS) ** 2):.6g}), got {damping:g}")
     # (a duration of 3 periods computed from another solve of the same truth may fall short by
     # round-off)
@@ -301,8 +303,10 @@ def check_duration(duration: float, T1: float, damping: float) -> None:
 
 def default_duration(T1: float, damping: float, periods: float = 20.0) -> float:
     """The simulated time [s] when none is given: ``periods`` first-mode periods of the truth
-    (``T1`` [s], undamped), and at least MIN_PERIODS + 1 damped ones (a heavily damped run)."""
-    return max(periods * T1, (MIN_PERIODS + 1) * T1 / math.sqrt(1 - damping ** 2))
+    (``T1`` [s], undamped), and at least MIN_PERIODS + 1 damped ones (a heavily damped run),
+    within the MAX_PERIODS undamped ones :func:`check_duration` allows."""
+    return min(max(periods * T1, (MIN_PERIODS + 1) * T1 / math.sqrt(1 - damping ** 2)),
+               MAX_PERIODS * T1)
 
 
 def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
@@ -409,17 +413,28 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
     T_exact = T1 / damped
     # the truth's exact damped period checks the measurement itself: where it fails (zeta above
     # about 0.75, where overdamped higher modes outlast the first) no period is reported
-    measured = abs(T_truth / T_exact - 1) <= PERIOD_MEASURE_TOLERANCE
+    measured = bool(abs(T_truth / T_exact - 1) <= PERIOD_MEASURE_TOLERANCE
+                    and math.isfinite(T_prbdm))
     if not measured:
         warnings.append(
             f"at damping ratio {damping:g} the first-mode period cannot be measured from the tip "
-            f"motion (the truth's measured period is {100 * (T_truth / T_exact - 1):+.2g} % off "
-            f"its exact {T_exact:.6g} s): the measured periods and period_error are null; "
+            "motion (" + (f"the truth's measured period is {100 * (T_truth / T_exact - 1):+.2g} "
+                          f"% off its exact {T_exact:.6g} s"
+                          if math.isfinite(T_truth) and math.isfinite(T_prbdm) else
+                          "the first mode dies out within a fraction of its period")
+            + "): the measured periods and period_error are null; "
             "compare the linear periods (period_prbdm_linear_s, period_truth_exact_s) or a "
             "smaller --damping")
-    # zero crossings while the first mode's envelope is above the integrator's noise (later,
-    # noise crossings gave periods 90 % short)
-    live = decaying_window(t, modes.omega[0], damping)
+    # zero crossings while the first mode's envelope is well above the integrator's noise
+    # (later, noise crossings gave periods 90 % short), and each kept only where it agrees with
+    # its model's measured period: strong higher modes (an impulse) cross zero more than once a
+    # period, and such a "period" was 75 % short
+    live = decaying_window(t, modes.omega[0], damping, CROSSING_FLOOR)
+
+    def crossing_period(tip, T):
+        Tz = zero_crossing_period(t[live], tip[live])
+        return None if math.isnan(Tz) or not measured or abs(Tz / T - 1) > CROSSING_TOLERANCE \
+            else Tz
     fit_err = None
     if "freq_error" in fit:
         try:
@@ -444,11 +459,12 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
         "period_truth_exact_s": T_exact,
         "period_prbdm_linear_s": 2 * math.pi / omega_lin[0] / damped,
         # null where the tip crossed zero upwards fewer than twice (a heavily damped run)
-        "period_zero_crossings_s": {key: (None if math.isnan(v) or not measured else v)
-                                    for key, v in (
-            ("prbdm", zero_crossing_period(t[live], tip_prbdm[live])),
-            ("truth", zero_crossing_period(t[live], tip_truth[live])))},
+        "period_zero_crossings_s": {"prbdm": crossing_period(tip_prbdm, T_prbdm),
+                                    "truth": crossing_period(tip_truth, T_truth)},
         "period_error": abs(T_prbdm - T_truth) / T_truth if measured else None,
+        # how far the truth's measured period is from its exact one: the resolution of
+        # period_error (the same estimator reads both records)
+        "period_resolution": (abs(T_truth / T_exact - 1) if math.isfinite(T_truth) else None),
         "fit_freq_error_mode1": fit_err,
         "fit_truth_difference_mode1": truth_diff,
         "max_tip_difference": float(np.max(np.abs(tip_prbdm - tip_truth)) / amp),

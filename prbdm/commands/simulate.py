@@ -15,7 +15,7 @@ the truth before the run (``check``; a warning per mode beyond ``--tolerance``, 
 
 JSON (``--json``): ``period_prbdm_s``, ``period_truth_s``, ``period_error`` (relative; all three
 null, with a warning, where the truth's measured period misses its exact one by over 0.1 %:
-damping above about 0.75),
+damping above about 0.72), ``period_resolution`` (that miss: the resolution of ``period_error``),
 ``fit_freq_error_mode1`` (the fit's first-mode frequency error at that pose, when known),
 ``fit_truth_difference_mode1`` (the fit's truth omega_1 against this truth's, when known),
 ``period_prbdm_linear_s`` / ``period_truth_exact_s`` (linear theory, damped),
@@ -107,8 +107,9 @@ def run(args) -> int:
     notes = ([f"fit's first-mode frequency error {100 * fe:.4g} %"] if fe is not None else []) \
         + ([f"fit's truth vs this truth {100 * td:.2g} %"] if td is not None else [])
     pe = info["period_error"]
-    print(("period error " + ("not measured (see the warning)" if pe is None
-                              else f"{100 * pe:.4g} %"))
+    print(("period error " + ("not measured (see the warning)" if pe is None else
+                              f"{100 * pe:.4g} % (resolution {100 * info['period_resolution']:.2g} "
+                              "%: the truth's measured against its exact period)"))
           + (f" ({'; '.join(notes)})" if notes else ""))
     print(f"tip difference: max {100 * info['max_tip_difference']:.3g} %, rms "
           f"{100 * info['rms_tip_difference']:.3g} % of the largest deflection; "
