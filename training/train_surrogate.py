@@ -51,6 +51,7 @@ import numpy as np
 import _cli
 import _heldout
 import _sets
+import _start
 from _cli import Setting
 
 PROG = "train_surrogate"
@@ -165,7 +166,6 @@ from prbdm import surrogate as sg  # noqa: E402
 from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
 from prbdm.dataset.schema import flatten  # noqa: E402
-from prbdm.errors import BadInput  # noqa: E402
 
 if device == "auto":
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -245,43 +245,18 @@ if init_from:
     if init_gamma:
         _fail("--init_gamma: not with --init_from (the start checkpoint's segmentations are the "
               "start)")
+    _R = min(spec["truth_modes"], rfe_segments - 1)
+    _names = sg.feature_names(sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
+                                             truth=spec["truth"], rfe_coarse=rfe_coarse,
+                                             spread=spread, profile=profile))
     try:
-        init_weights, init_meta = sg.read_checkpoint(init_from)
-        init_sha256 = hashlib.sha256(Path(init_from).read_bytes()).hexdigest()
-        _net, _fs = init_meta["network"], init_meta["features"]["spec"]
-        _R = min(spec["truth_modes"], rfe_segments - 1)
-        _names = sg.feature_names(sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments,
-                                                 rfe_modes=_R, truth=spec["truth"],
-                                                 rfe_coarse=rfe_coarse, spread=spread,
-                                                 profile=profile))
-        _poses = model.make_poses(spec["poses"], n).tolist()
-        _need = {"joints": (init_meta["joints"], n), "width": (_net["width"], width),
-                 "depth": (_net["depth"], depth), "k_mode": (_net["k_mode"], k_mode),
-                 "hypotheses": (_net["hypotheses"], hypotheses),
-                 "poses": (init_meta["poses"], _poses), "truth_modes": (init_meta["truth_modes"], _R),
-                 # spread is absent from checkpoints made before it (then off)
-                 **{k: (_fs.get(k, False) if k == "spread" else _fs[k], globals()[k])
-                    for k in ("cells", "rfe_segments", "rfe_coarse", "spread")}}
-        _lost = [f for f in init_meta["features"]["names"] if f not in _names]
-        for _k in ("feature_mean", "feature_std", "logk_mean", "logk_std", "freq_mean",
-                   "freq_std", "gamma_mean", "gamma_std"):
-            init_meta["normalisation"][_k]
-    except BadInput as exc:
+        init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
+            "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
+            "hypotheses": hypotheses, "poses": model.make_poses(spec["poses"], n).tolist(),
+            "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
+            "rfe_coarse": rfe_coarse, "spread": spread})
+    except _start.StartError as exc:
         _fail(f"--init_from: {exc}")
-    except (KeyError, TypeError) as exc:
-        _fail(f"--init_from: {init_from} lacks {exc} in its metadata; a start checkpoint must be "
-              f"one that training/train_surrogate.py wrote")
-    for _k, (_have, _want) in _need.items():
-        if (not (np.shape(_have) == np.shape(_want)
-                 and np.allclose(_have, _want, rtol=0, atol=1e-12)) if _k == "poses"
-                else _have != _want):
-            _have, _want = ((f"{np.round(_have, 4).tolist()}", f"{np.round(_want, 4).tolist()}")
-                            if _k == "poses" else (repr(_have), repr(_want)))
-            _fail(f"--init_from: {init_from} has {_k} = {_have}, this run {_want}; a start "
-                  f"checkpoint must have this run's network and feature settings")
-    if _lost:
-        _fail(f"--init_from: {init_from} uses features this run's truth ({spec['truth']}) does "
-              f"not have ({', '.join(_lost[:3])}); a start must use a subset of this run's")
 
 # ------------------------------------------------------------------------------- log
 out_path.parent.mkdir(parents=True, exist_ok=True)
