@@ -412,7 +412,7 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
     T_prbdm, T_truth = 2 * math.pi / w_prbdm, 2 * math.pi / w_truth
     T_exact = T1 / damped
     # the truth's exact damped period checks the measurement itself: where it fails (zeta above
-    # about 0.75, where overdamped higher modes outlast the first) no period is reported
+    # about 0.72, where overdamped higher modes outlast the first) no period is reported
     measured = bool(abs(T_truth / T_exact - 1) <= PERIOD_MEASURE_TOLERANCE
                     and math.isfinite(T_prbdm))
     if not measured:

@@ -13,11 +13,12 @@ class StartError(ValueError):
     """A start checkpoint this run cannot start from: the message says why."""
 
 
-def read_start(path, feature_names: list, settings: dict) -> tuple[dict, dict, str]:
+def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[dict, dict, str]:
     """(weights, metadata, sha256 of the file) of the start checkpoint at ``path``, checked
     against this run: ``feature_names`` (its features must be a subset) and ``settings``, the
     values its metadata must equal (joints, width, depth, k_mode, hypotheses, poses as a list,
-    truth_modes, cells, rfe_segments, rfe_coarse, spread). StartError otherwise."""
+    truth_modes, cells, rfe_segments, rfe_coarse, spread), ``truth`` this run's truth (for the
+    message). StartError otherwise."""
     from prbdm import surrogate as sg
     from prbdm.errors import BadInput
 
@@ -49,6 +50,6 @@ def read_start(path, feature_names: list, settings: dict) -> tuple[dict, dict, s
             raise StartError(f"{path} has {k} = {got}, this run {want}; a start checkpoint must "
                              "have this run's network and feature settings")
     if lost:
-        raise StartError(f"{path} uses features this run's truth does not have "
+        raise StartError(f"{path} uses features this run's truth ({truth}) does not have "
                          f"({', '.join(lost[:3])}); a start must use a subset of this run's")
     return weights, meta, sha256

@@ -254,8 +254,8 @@ if init_from:
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
             "hypotheses": hypotheses, "poses": model.make_poses(spec["poses"], n).tolist(),
             "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
-            "rfe_coarse": rfe_coarse, "spread": spread})
-    except _start.StartError as exc:
+            "rfe_coarse": rfe_coarse, "spread": spread}, spec["truth"])
+    except (_start.StartError, ValueError) as exc:       # BadInput is a ValueError
         _fail(f"--init_from: {exc}")
 
 # ------------------------------------------------------------------------------- log
