@@ -309,6 +309,21 @@ def default_duration(T1: float, damping: float, periods: float = 20.0) -> float:
                MAX_PERIODS * T1)
 
 
+def truth_and_duration(beam, truth_modes: int, duration: float | None, damping: float,
+                       periods: float = 20.0, modes: "BeamModes | None" = None):
+    """(modes, T1, duration): the truth's :func:`beam_modes` (``modes`` when given), its first
+    undamped period ``T1`` [s], and the run's ``duration`` [s] (:func:`default_duration` when
+    None), checked (:func:`check_duration`). Cheap next to a fit: the command line calls it
+    before fitting, so that a bad duration is refused first."""
+    if modes is None:
+        modes = beam_modes(beam, truth_modes)
+    T1 = 2 * math.pi / modes.omega[0]
+    if duration is None:
+        duration = default_duration(T1, damping, periods)
+    check_duration(duration, T1, damping)
+    return modes, T1, duration
+
+
 def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
@@ -355,12 +370,7 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
     # the truth's modes first: a duration out of range is refused before any refit
-    if modes is None:             # (the command line solved them already, for its early check)
-        modes = beam_modes(beam, truth_modes)
-    T1 = 2 * math.pi / modes.omega[0]
-    if duration is None:
-        duration = default_duration(T1, damping, periods)
-    check_duration(duration, T1, damping)
+    modes, T1, duration = truth_and_duration(beam, truth_modes, duration, damping, periods, modes)
     prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,
                    check_beam=check_beam)
     warnings += prep.warnings

@@ -47,7 +47,7 @@ from prbdm.surrogate.checkpoint import read_checkpoint  # noqa: E402
 path = Path(cfg["checkpoint"])
 try:
     weights, meta = read_checkpoint(path)
-    sur = sg.load_checkpoint(path)
+    sur = sg.Surrogate(weights, meta, path)         # load_checkpoint, without reading it again
 except BadInput as exc:
     _fail(str(exc))
 recorded = meta.get("test")
@@ -81,13 +81,14 @@ omega_truth = np.stack(table["omega_truth"].to_numpy())[te, :R]
 loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
 test = _heldout.test_metrics(sur, batch, omega_truth, sur.modes, loss_fit)
 
+
 def _same(old, new) -> bool:
     """Equal counts and bands, floats to rtol: the same measurement (timings excepted)."""
     if isinstance(old, dict):
         return old.keys() <= new.keys() and all(_same(old[k], new[k]) for k in old)
     if isinstance(old, list) and old and isinstance(old[0], dict):
         return len(old) == len(new) and all(_same(o, n) for o, n in zip(old, new))
-    if isinstance(old, float) or (isinstance(old, list) and old and old[0] is not None
+    if isinstance(old, float) or (isinstance(old, list) and old
                                   and all(isinstance(v, float) for v in old)):
         return bool(np.allclose(new, old, rtol=RTOL, atol=0.0))
     return old == new

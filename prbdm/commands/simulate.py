@@ -27,7 +27,6 @@ damping above about 0.72), ``period_resolution`` (that miss: the resolution of `
 """
 from __future__ import annotations
 
-import math
 import sys
 
 from ..errors import BadInput
@@ -57,8 +56,7 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from ..simulate import (beam_modes, check_damping, check_duration, default_duration,
-                            plot_simulation, simulate)
+    from ..simulate import check_damping, plot_simulation, simulate, truth_and_duration
     from .fit import _check_plot_path
 
     check_damping(args.damping)           # before the fit: an overdamped beam has no period
@@ -69,9 +67,7 @@ def run(args) -> int:
     modes = None
     if args.fit_file is None:
         # before the fit (seconds): the truth's first period (milliseconds) bounds --duration
-        modes = beam_modes(beam, args.truth_modes)
-        T1 = 2 * math.pi / modes.omega[0]
-        check_duration(args.duration or default_duration(T1, args.damping), T1, args.damping)
+        modes = truth_and_duration(beam, args.truth_modes, args.duration, args.damping)[0]
     fit, warnings = fit_from_args(args, beam)
     res = simulate(beam, fit, pose=args.pose, tip_deflection=args.tip_deflection,
                    tip_impulse=args.tip_impulse, damping=args.damping, duration=args.duration,
