@@ -115,7 +115,7 @@ def global_quality(count, seed, n, objective="eigenvalue"):
     long = fit_many(beams, omega, joints=n, starts=10 * S, max_iter=1500, seed=seed + 1,
                     objective=objective)
     t_long = (time.perf_counter() - t0) / count
-    excess = np.array([minimised(d) / l.best_loss_percent - 1 for d, l in zip(default, long)])
+    excess = np.array([minimised(d) / l.best_objective_percent - 1 for d, l in zip(default, long)])
     print(f"global quality, {objective} objective, n = {n}, {count} beams: default ({S} starts, 150 iterations, "
           f"{t_def:.2f} s/beam) vs long search ({10 * S} starts, 1500 iterations, "
           f"{t_long:.1f} s/beam)")
@@ -158,7 +158,7 @@ def start_design(count, seed, n, repeats, objective="eigenvalue"):
         loss[name] = (loss[name], t)
     big = np.array([fit_many([b], omega[i:i + 1], joints=n, modes=n,
                              starts=10 * default_starts(n), seed=10 ** 6,
-                             objective=objective)[0].best_loss_percent
+                             objective=objective)[0].best_objective_percent
                     for i, b in enumerate(beams)])
     ref = np.minimum(big, np.min([v.min(0) for v, _ in loss.values()], 0))
     print(f"start design, {objective} objective, n = {n}: {count} beams of seed {seed} x {repeats} fit seeds, "

@@ -67,12 +67,12 @@ def run_fit(beam, joints: int, *, modes: int | None = None, law: str = "beam", p
     from .fingerprint import beam_fingerprint
     from .fit import fit_prbdm
     from .model import BeamTensors, links_from_gamma
-    from .truth import bending_frequencies
+    from .truth import bending_frequencies, modes_for_fit
     from .truth.choice import choose_truth
 
     r = modes or joints
     model, reason = choose_truth(beam, truth)
-    tr = bending_frequencies(beam, model=model, modes=max(r, joints))
+    tr = bending_frequencies(beam, model=model, modes=modes_for_fit(model, joints, r))
     res = fit_prbdm(beam, tr.omega, joints=joints, modes=r, law=law, poses=poses,
                     starts=starts, seed=seed)
     bt = BeamTensors.from_beams(beam)

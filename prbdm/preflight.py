@@ -28,14 +28,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .constants import SELF_CHECK_IMPLAUSIBLE, SELF_CHECK_TOLERANCE
 from .errors import BadInput
 from .fingerprint import beam_fingerprint
 
 __all__ = ["DEFAULT_TOLERANCE", "REMEDY", "Prepared", "prepare", "check_fingerprint",
-           "check_frequencies", "fit_truth", "refit_at_rest", "where_of"]
+           "check_frequencies", "check_answer", "fit_truth", "refit_at_rest", "where_of"]
 
 #: relative frequency error beyond which a model about to be used gets a warning (5 %)
-DEFAULT_TOLERANCE = 0.05
+DEFAULT_TOLERANCE = SELF_CHECK_TOLERANCE
 #: what to do about a model whose small-vibration frequencies are off
 REMEDY = ("use a small-vibration fit: --pose rest (the default; it refits a paper-pose result at "
           "theta = 0), or 'prbdm fit --poses linear'; or fit with the frequency objective "
@@ -236,3 +237,42 @@ def where_of(desc: dict) -> str:
         springs = "" if not any(p["theta"]) else f", springs of pose {p['index']}"
         return f"at rest (theta = 0{springs})"
     return f"about pose {p['index']} (theta_1 = {p['theta'][0]:.4g} rad)"
+
+
+def check_answer(omega, truth, modes: int, poses, *, truth_source: str, remedy: str,
+                 tolerance: float = SELF_CHECK_TOLERANCE,
+                 implausible: float = SELF_CHECK_IMPLAUSIBLE):
+    """Every answer checks itself: (check, warnings) for a PRBDM's frequencies ``omega`` (m, n)
+    [rad/s], one row per pose of ``poses`` (m, n) [rad], against the truth it was made for
+    (``truth`` (R,) [rad/s], named by ``truth_source``) over the first ``modes`` modes.
+
+    ``check`` (JSON-ready): per mode the worst relative error over the poses and the pose where it
+    is, the worst mode, ``tolerance``, ``ok`` (every mode within it) and ``implausible`` (some
+    mode further off than ``implausible``: not a model of this panel). One warning per mode beyond
+    the tolerance, naming the mode, its error, the pose and ``remedy``."""
+    om = np.atleast_2d(np.asarray(omega, float))
+    tr = np.asarray(truth, float)
+    r = int(min(modes, om.shape[-1], tr.size))
+    err = om[:, :r] / tr[None, :r] - 1.0                       # (m, r)
+    err = np.where(np.isfinite(err), err, np.inf)
+    at = np.argmax(np.abs(err), axis=0)                        # worst pose per mode
+    worst = err[at, np.arange(r)]
+    poses = np.atleast_2d(np.asarray(poses, float))
+    check = {"truth": truth_source, "modes": r, "tolerance": float(tolerance),
+             "error": [float(v) for v in worst], "pose": [int(i) for i in at],
+             "max_error": float(np.abs(worst).max()),
+             "worst_mode": int(np.argmax(np.abs(worst))) + 1,
+             "ok": bool(np.all(np.abs(worst) <= tolerance)),
+             "implausible": bool(np.any(~(np.abs(worst) <= implausible)))}
+    warnings = []
+    for j in np.flatnonzero(~(np.abs(worst) <= tolerance)):
+        e, i = worst[j], int(at[j])
+        where = ("" if om.shape[0] == 1 and not np.any(poses[i])
+                 else f" at pose {i} (theta_1 = {poses[i][0]:.3g} rad)")
+        size = f"{100 * abs(e):.3g} % {'above' if e > 0 else 'below'}" if np.isfinite(e) \
+            else "not a finite multiple of"
+        warnings.append(f"mode {j + 1}: the PRBDM's frequency{where} is {size} {truth_source} "
+                        f"(tolerance {100 * tolerance:g} %"
+                        + (f"; beyond {100 * implausible:g} % it is not a model of this panel"
+                           if not abs(e) <= implausible else "") + f"); {remedy}")
+    return check, warnings

@@ -71,8 +71,11 @@ def span_integrals(x, w, a, b, *, compliance: bool = True) -> SpanIntegrals:
     xk, xk1 = x[..., None, :-1], x[..., None, 1:]
     wk, wk1 = w[..., None, :-1], w[..., None, 1:]
     a_, b_ = a[..., :, None], b[..., :, None]
-    lo = torch.minimum(torch.maximum(xk, a_), b_)
-    hi = torch.minimum(torch.maximum(xk1, a_), b_)
+    # the span clipped to the segment: both ends stay inside [x_k, x_k+1], so the half-width
+    # below is interpolated, never extrapolated (a segment outside the span has h = 0 and
+    # widths of its own, positive, wherever the stations fall relative to the cuts)
+    lo = torch.minimum(torch.maximum(a_, xk), xk1)
+    hi = torch.maximum(torch.minimum(b_, xk1), lo)
     dx = xk1 - xk
     has_length = dx > 0
     slope = torch.where(has_length, (wk1 - wk) / torch.where(has_length, dx, torch.ones_like(dx)),

@@ -324,6 +324,25 @@ def truth_and_duration(beam, truth_modes: int, duration: float | None, damping: 
     return modes, T1, duration
 
 
+#: the truths whose physics the simulation's reference (the Euler-Bernoulli modal
+#: superposition) is: a result fitted to another is judged by the truth it was fitted to or not
+#: at all
+SIMULATED_TRUTHS = ("beam", "analytic")
+
+
+def check_simulated_truth(fit: dict) -> None:
+    """BadInput for a result made for another truth than the simulated one: its PRBDM would be
+    judged against physics it was not fitted to (a plate fit against the beam: a 'period error'
+    that is the beam-plate gap, labelled truth). A result that names no truth passes."""
+    truth = fit.get("truth") if isinstance(fit, dict) else None
+    model = truth.get("model") if isinstance(truth, dict) else truth
+    if isinstance(model, str) and model not in SIMULATED_TRUTHS:
+        raise BadInput(f"--from: the result was made for the {model} truth, but simulate's "
+                       "reference is the Euler-Bernoulli beam's modal superposition (the truth "
+                       "it integrates in time); refit with `--truth beam` (`prbdm simulate BEAM "
+                       "--joints N` does), or export it and simulate in MuJoCo")
+
+
 def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = None,
              tip_impulse: float | None = None, damping: float = 0.0,
              duration: float | None = None, periods: float = 20.0, samples_per_period: int = 64,
@@ -369,6 +388,7 @@ def simulate(beam, fit: dict, *, pose="rest", tip_deflection: float | None = Non
             raise BadInput(f"--tip-deflection: must be non-zero with |D| <= 0.3 L = {0.3 * L:g} m, "
                            f"got {tip_deflection!r}")
         kind, amount = "tip_deflection", float(tip_deflection)
+    check_simulated_truth(fit)
     # the truth's modes first: a duration out of range is refused before any refit
     modes, T1, duration = truth_and_duration(beam, truth_modes, duration, damping, periods, modes)
     prep = prepare(beam, fit, pose=pose, ignore_fingerprint=ignore_fingerprint,

@@ -174,3 +174,75 @@ def test_gradients_finite_at_stations_and_equal_widths():
     grads = torch.autograd.grad(sum(v.sum() for v in si), (w, a, b))
     for g in grads:
         assert torch.isfinite(g).all()
+
+
+def test_stations_on_and_next_to_every_cut_give_finite_exact_links():
+    """A station that falls on a cut of the joints' tributary spans, or a hair beside one, must
+    not matter: the links and compliances stay finite and agree with the NumPy twin, which
+    integrates by cumulative sums (another construction), for many joint layouts."""
+    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
+    from prbdm.geometry import Beam
+    from prbdm.surrogate import numpy_model as nm
+
+    rng = np.random.default_rng(35)
+    layouts = [uniform_gamma(n).numpy() for n in (2, 3, 4, 5, 6, 8)]
+    for _ in range(12):
+        n = int(rng.integers(2, 9))
+        g = rng.uniform(0.05, 1.0, n + 1)
+        layouts.append(g / g.sum())
+    checked = 0
+    for gamma in layouts:
+        cuts = np.concatenate([[0.0], np.cumsum(gamma)[:-1], [1.0]])
+        centres = (cuts[1:] + cuts[:-1]) / 2
+        for c in np.concatenate([cuts[1:-1], centres]):
+            for eps in (0.0, 1e-15, -1e-15, 1e-9, -1e-9):
+                s = c + eps
+                if not 1e-6 < s < 1 - 1e-6:
+                    continue
+                # a steep neck: extrapolating a segment past its station gives a width <= 0
+                w = np.array([0.1, 0.003, 0.2]) if checked % 2 else rng.uniform(0.005, 0.2, 3)
+                beam = Beam(x=np.array([0.0, s, 1.0]), half_width=w, thickness=0.01)
+                bt = BeamTensors.from_beams([beam])
+                lk = links_from_gamma(bt, torch.tensor(gamma)[None])
+                ref = nm.links_from_gamma(bt.x.numpy(), bt.w.numpy(), gamma[None])
+                for name in ("mass", "com", "inertia", "tributary_compliance"):
+                    got = getattr(lk, name).numpy()
+                    assert np.all(np.isfinite(got)), (name, gamma, s)
+                    np.testing.assert_allclose(got, ref[name], rtol=1e-9, atol=1e-13,
+                                               err_msg=f"{name} gamma={gamma} station={s}")
+                checked += 1
+    # the exact failure: a segment whose line, extended past its station, reaches width 0 exactly
+    # on another cut (dyadic numbers, so the old extrapolation gave 0 and then 0/0 = NaN)
+    for n in (2, 4, 8):
+        gamma = uniform_gamma(n).numpy()
+        cuts = np.concatenate([[0.0], np.cumsum(gamma)[:-1], [1.0]])
+        marks = np.unique(np.concatenate([cuts, (cuts[1:] + cuts[:-1]) / 2]))
+        for s in marks[1:-1]:
+            for c2 in marks[marks < s]:
+                beam = Beam(x=np.array([0.0, s, 1.0]),
+                            half_width=np.array([0.1, (s - c2) / 4, (1 - c2) / 4]),
+                            thickness=0.01)
+                bt = BeamTensors.from_beams([beam])
+                lk = links_from_gamma(bt, torch.tensor(gamma)[None])
+                ref = nm.links_from_gamma(bt.x.numpy(), bt.w.numpy(), gamma[None])
+                got = lk.tributary_compliance.numpy()
+                assert np.all(np.isfinite(got)), (n, s, c2, got)
+                np.testing.assert_allclose(got, ref["tributary_compliance"], rtol=1e-9)
+                checked += 1
+    assert checked > 300
+
+
+def test_a_station_on_a_cut_is_the_limit_of_stations_beside_it():
+    """Continuity across the cut: moving the station by 1e-12 moves the compliance by about as
+    much (it used to be NaN exactly on the cut)."""
+    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
+    from prbdm.geometry import Beam
+
+    vals = []
+    for s in (0.75 - 1e-12, 0.75, 0.75 + 1e-12):
+        beam = Beam(x=np.array([0.0, s, 1.0]), half_width=np.array([0.1, 0.03, 0.06]),
+                    thickness=0.01)
+        lk = links_from_gamma(BeamTensors.from_beams([beam]), uniform_gamma(4)[None])
+        vals.append(lk.tributary_compliance.numpy()[0])
+    np.testing.assert_allclose(vals[1], vals[0], rtol=1e-9)
+    np.testing.assert_allclose(vals[1], vals[2], rtol=1e-9)

@@ -38,7 +38,7 @@ from ..errors import BadInput
 from ..preflight import DEFAULT_TOLERANCE
 from ._common import add_beam_argument, positive_int, print_json, read_beam, table
 
-FIT_OPTIONS = ("modes", "law", "poses", "starts", "seed")
+FIT_OPTIONS = ("truth", "modes", "law", "poses", "starts", "seed")
 
 
 def finite_float(minimum: float | None = None, positive: bool = False):
@@ -58,13 +58,13 @@ def finite_float(minimum: float | None = None, positive: bool = False):
     return parse
 
 
-def add_source_arguments(parser, default_poses: str):
+def add_source_arguments(parser, default_poses: str, truths=("auto", "analytic", "beam", "plate",
+                                                               "mindlin"), default_truth="auto"):
     """BEAM, ``--joints N | --from FIT.json`` and the fit options (used with ``--joints``)."""
     add_beam_argument(parser)
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--joints", "-n", type=positive_int(1, 39), metavar="N",
-                     help="fit an nR-PRBDM here (truth: --truth auto, the beam for a strip up to "
-                        "0.05 L wide, the plate beyond)")
+                     help=f"fit an nR-PRBDM here (to --truth, default {default_truth})")
     src.add_argument("--from", dest="fit_file", metavar="FIT.json",
                      help="use the PRBDM of a saved 'prbdm fit --json' output (- for stdin)")
     parser.add_argument("--pose", default="rest", metavar="rest|I|linear",
@@ -80,6 +80,11 @@ def add_source_arguments(parser, default_poses: str):
                         help="apply a --from result made for another beam (beam_fingerprint "
                              "differs) anyway")
     g = parser.add_argument_group("fit options (with --joints)")
+    g.add_argument("--truth", choices=truths, default=None,
+                   help=f"truth the fit is made to (default {default_truth}"
+                        + ("" if default_truth != "auto" else
+                           ": the beam for a strip up to 0.05 L wide, the Kirchhoff or Mindlin "
+                           "plate beyond, as `prbdm fit`") + ")")
     g.add_argument("--modes", type=positive_int(1, 50), default=None,
                    help="truth modes to map (default n)")
     g.add_argument("--law", choices=("beam", "paper"), default=None,
@@ -90,7 +95,7 @@ def add_source_arguments(parser, default_poses: str):
                    help="start points of the multistart (default 64)")
     g.add_argument("--seed", type=positive_int(0), default=None,
                    help="seed of the random start points (default 0)")
-    parser.set_defaults(default_poses=default_poses)
+    parser.set_defaults(default_poses=default_poses, default_truth=default_truth)
 
 
 def fit_from_args(args, beam) -> tuple[dict, list[str]]:
@@ -111,7 +116,8 @@ def fit_from_args(args, beam) -> tuple[dict, list[str]]:
     n = args.joints
     poses, warnings = parse_poses(args.poses or args.default_poses, n)
     fit = run_fit(beam, n, modes=args.modes, law=args.law or "beam", poses=poses,
-                  starts=args.starts, seed=args.seed or 0)
+                  starts=args.starts, seed=args.seed or 0,
+                  truth=args.truth or args.default_truth)
     return fit, warnings + truth_caveat(beam, fit)
 
 

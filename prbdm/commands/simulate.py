@@ -35,7 +35,9 @@ from .export import add_source_arguments, finite_float, fit_from_args
 
 
 def add_arguments(parser):
-    add_source_arguments(parser, default_poses="linear")
+    # the fit is made to the truth simulated here: the Euler-Bernoulli beam (its modal
+    # superposition is the reference); a wide panel is told its measured beam-plate gap
+    add_source_arguments(parser, default_poses="linear", truths=("beam",), default_truth="beam")
     ic = parser.add_mutually_exclusive_group()
     ic.add_argument("--tip-deflection", type=finite_float(), default=None, metavar="D",
                     help="release from rest in the static shape of a tip force with tip "
@@ -64,6 +66,11 @@ def run(args) -> int:
         _check_plot_path(args.plot)
         require("matplotlib", purpose="--plot")
     beam, beam_info = read_beam(args, "simulate")
+    from ..truth.choice import beam_gap_warning
+
+    gap = beam_gap_warning(beam, "simulate's reference and its fit are the beam's; for the "
+                           "plate's dynamics export the plate fit (`prbdm export BEAM --joints N`) "
+                           "and simulate it in MuJoCo")
     modes = None
     if args.fit_file is None:
         # before the fit (seconds): the truth's first period (milliseconds) bounds --duration
@@ -74,7 +81,7 @@ def run(args) -> int:
                    truth_modes=args.truth_modes, modes=modes, tolerance=args.tolerance / 100,
                    ignore_fingerprint=args.ignore_fingerprint,
                    check_beam=args.fit_file is not None)
-    res.info["warnings"] = warnings + res.info["warnings"]
+    res.info["warnings"] = ([gap] if gap else []) + warnings + res.info["warnings"]
     for w in res.info["warnings"]:
         sys.stderr.write(f"warning: {w}\n")
     if args.plot:

@@ -17,11 +17,14 @@ from ._common import add_beam_argument, positive_int, print_json, read_beam, req
 
 def add_arguments(parser):
     add_beam_argument(parser)
-    parser.add_argument("--model", choices=("analytic", "beam", "plate", "mindlin"),
-                        default="beam",
-                        help="analytic (uniform beams), beam (Euler-Bernoulli FEM, default), "
-                             "plate (Kirchhoff plate FEM) or mindlin (Reissner-Mindlin plate "
-                             "FEM: with transverse shear and rotary inertia)")
+    parser.add_argument("--model", choices=("auto", "analytic", "beam", "plate", "mindlin"),
+                        default="auto",
+                        help="auto (default: the truth `prbdm fit` takes for this panel, with "
+                             "its reason: the beam for a strip up to 0.05 L wide, the Kirchhoff "
+                             "or, thick or necked, the Mindlin plate beyond), analytic (uniform "
+                             "beams), beam (Euler-Bernoulli FEM), plate (Kirchhoff plate FEM) or "
+                             "mindlin (Reissner-Mindlin plate FEM: with transverse shear and "
+                             "rotary inertia)")
     parser.add_argument("--modes", type=positive_int(1), default=5, metavar="R",
                         help="number of bending modes (default 5)")
     parser.add_argument("--all-modes", action="store_true",
@@ -41,8 +44,10 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..truth import bending_frequencies
+    from ..truth.choice import beam_gap_warning, choose_truth
 
-    beam, info = read_beam(args, "truth", model=args.model)
+    beam, info = read_beam(args, "truth", model=None if args.model == "auto" else args.model)
+    args.model, reason = choose_truth(beam, args.model)
     options = {}
     if args.selection is not None:
         if args.model not in ("plate", "mindlin"):
@@ -58,13 +63,20 @@ def run(args) -> int:
     from ..truth.choice import shear_caveat
     caveat = shear_caveat(beam, res.model)
     warnings = [caveat] if caveat else []
+    if res.model in ("beam", "analytic"):
+        gap = beam_gap_warning(beam, "`--model auto` solves it",
+                               modes=min(4, len(res.omega)))
+        warnings += [gap] if gap else []
     for w in warnings:
         sys.stderr.write(f"prbdm truth: warning: {w}\n")
     if args.json:
-        print_json({**res.to_dict(all_modes=args.all_modes), "input": info,
+        print_json({**res.to_dict(all_modes=args.all_modes), "reason": reason, "input": info,
                     "warnings": warnings})
         return 0
+    print(f"truth: {res.model} ({reason})")
     print(_report(beam, res, args.all_modes))
+    if args.plot is not None:
+        print(f"plot written to {args.plot}")
     return 0
 
 

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import ACCURACY_WARN_FREQ_PERCENT, ACCURACY_WARN_LOSS_PERCENT
+from ..constants import (ACCURACY_WARN_FREQ_PERCENT, ACCURACY_WARN_LOSS_PERCENT,
+                         SELF_CHECK_IMPLAUSIBLE)
 from ..errors import BadInput
 from .checkpoint import (check_checkpoint, default_checkpoint, member_prefixes, read_checkpoint,
                          width_band_index)
@@ -499,6 +500,13 @@ def physical_problems(pred: Prediction, rfe: np.ndarray, batch: BeamBatch | None
         checks.append((~(np.all(np.isfinite(nd), axis=(1, 2))
                          & np.all(np.isfinite(dp) & (np.abs(dp) <= limit), axis=(1, 2))),
                        lambda i: _worst_pose_mode(dp[i])))
+    if pred.omega is not None and pred.omega_truth is not None:
+        # every answer checks itself: the PRBDM against the truth the same network predicted
+        # (prbdm.constants.SELF_CHECK_IMPLAUSIBLE; predict warns from SELF_CHECK_TOLERANCE on)
+        r = min(pred.omega.shape[-1], pred.omega_truth.shape[-1])
+        rel = pred.omega[..., :r] / pred.omega_truth[:, None, :r] - 1.0    # (B, m, r)
+        off = ~(np.abs(rel) <= SELF_CHECK_IMPLAUSIBLE)
+        checks.append((np.any(off, axis=(1, 2)), lambda i: _self_check_text(rel[i])))
     bad = np.zeros(B, dtype=bool)
     for mask, _ in checks:
         bad |= mask
@@ -517,6 +525,19 @@ def _worst_pose_mode(dev) -> str:
     ratio = f"{np.exp(v):.3g} times" if np.isfinite(v) else "not a finite multiple of"
     return (f"the PRBDM's mode {mode + 1} frequency at pose {pose} is {ratio} the equal-link "
             f"chain's estimate (allowed 1/{FREQ_FACTOR:g} to {FREQ_FACTOR:g})")
+
+
+def _self_check_text(rel) -> str:
+    """Words for the worst of one beam's (m, r) relative errors of the PRBDM against its own
+    predicted truth."""
+    rel = np.where(np.isfinite(rel), rel, np.inf)
+    pose, mode = np.unravel_index(int(np.argmax(np.abs(rel))), rel.shape)
+    v = rel[pose, mode]
+    size = (f"{100 * abs(v):.3g} % {'above' if v > 0 else 'below'}" if np.isfinite(v)
+            else "not a finite multiple of")
+    return (f"the PRBDM's mode {mode + 1} frequency at pose {pose} is {size} the truth the same "
+            f"network predicted (allowed {100 * SELF_CHECK_IMPLAUSIBLE:g} %): the network's "
+            "segmentation and stiffness do not make a model of this panel")
 
 
 def _vec(v) -> str:

@@ -37,7 +37,7 @@ from ..geometry import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,  # noqa
                         MAX_PLATE_WIDTH_RATIO, MAX_THICKNESS_RATIO, MAX_WIDTH_RATIO, check_beam)
 from .result import TruthResult, check_frequencies
 
-__all__ = ["bending_frequencies", "TruthResult", "MODELS", "MAX_MODES"]
+__all__ = ["bending_frequencies", "modes_for_fit", "TruthResult", "MODELS", "MAX_MODES"]
 
 MODELS = ("analytic", "beam", "plate", "mindlin")
 #: the most modes each model may be asked for
@@ -54,6 +54,19 @@ def _check_modes(model, modes):
         raise BadInput(f"modes: must be an integer in [1, {top}] for model {model!r}, "
                        f"got {modes!r}")
     return int(modes)
+
+
+def modes_for_fit(model: str, joints: int, modes: int) -> int:
+    """How many truth modes a fit of ``joints`` joints mapping ``modes`` modes asks ``model`` for:
+    the mapped r = min(joints, modes) at least, up to max(joints, modes) where the model gives
+    that many (the rest are reported beside the fit). BadInput naming --modes when the mapped
+    modes are more than the model gives."""
+    r = min(joints, modes)
+    top = MAX_MODES[model]
+    if r > top:
+        raise BadInput(f"--modes {r} (the modes mapped, min(--joints, --modes)): the {model} "
+                       f"truth gives at most {top} modes; map at most {top}")
+    return max(r, min(max(joints, modes), top))
 
 
 def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,

@@ -127,3 +127,36 @@ def shear_caveat(beam, model: str) -> str | None:
                 f"modes 1-4 are about {', '.join(f'{e:.2g}' for e in est)} % high (3-D "
                 "elasticity on smooth panels, scaled by (t/L)^2; docs/truth.md)")
     return None
+
+
+# ------------------------------------------------------------------ the beam's gap on this panel
+def beam_gap(beam, modes: int = 4) -> tuple[str, list[float]] | None:
+    """(model, gaps): this panel's truth by ``auto`` and the Euler-Bernoulli beam's relative
+    frequency difference from it on modes 1..``modes`` (``omega_beam / omega_model - 1``), both
+    solved here (milliseconds for the beam and the Kirchhoff plate, a fraction of a second for the
+    Mindlin plate); None where ``auto`` takes the beam itself."""
+    model, _ = choose_truth(beam, "auto")
+    if model == "beam":
+        return None
+    from . import bending_frequencies
+
+    other = bending_frequencies(beam, model=model, modes=modes).omega
+    ours = bending_frequencies(beam, model="beam", modes=modes).omega
+    r = min(len(other), len(ours), modes)
+    return model, [float(ours[j] / other[j] - 1.0) for j in range(r)]
+
+
+def beam_gap_warning(beam, remedy: str, modes: int = 4) -> str | None:
+    """The one wording, in every command, for an answer that follows the beam on a panel whose
+    truth (``auto``) is a plate: the panel's width and its measured gap, mode by mode. None where
+    ``auto`` takes the beam."""
+    gap = beam_gap(beam, modes)
+    if gap is None:
+        return None
+    model, gaps = gap
+    label = "shear-deformable (mindlin) plate" if model == "mindlin" else "Kirchhoff plate"
+    worst = max(abs(g) for g in gaps)
+    return (f"this panel is {width_ratio(beam):.3g} L wide: its truth (`--truth auto`) is the "
+            f"{label}, and the Euler-Bernoulli beam used here differs from it by "
+            f"{', '.join(f'{100 * g:+.2g}' for g in gaps)} % on modes 1-{len(gaps)} "
+            f"(both solved for this panel; worst {100 * worst:.2g} %); {remedy}")
