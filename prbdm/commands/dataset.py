@@ -43,6 +43,9 @@ def add_arguments(parser):
                    help="what the fit minimises: eigenvalue (the paper's loss) or frequency (the "
                    "worst relative frequency error per pose); every record holds both measures "
                    "(default: the set's; eigenvalue for a new set). Part of the spec")
+    g.add_argument("--target", choices=("spectrum", "section"), default=None,
+                   help="plate, mindlin: the bending spectrum (default for a new set) or the "
+                   "section rule's pick (the set's own for an existing one). Part of the spec")
     g.add_argument("--seed", type=positive_int(0), default=0, metavar="S",
                    help="random-beam stream (default 0); beam i is random_beam(S, i)")
     g.add_argument("--stations", type=positive_int(0), metavar="p",
@@ -98,7 +101,8 @@ def _generate(args) -> int:
                              max_half_width=(None if args.max_half_width is None else
                                              float_list(args.max_half_width, "--max-half-width",
                                                         positive=True)),
-                             fit_batch=args.fit_batch, objective=args.objective)
+                             fit_batch=args.fit_batch, objective=args.objective,
+                             target=args.target)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         summary = dataset.generate(args.out, args.count, spec, workers=args.workers,

@@ -52,9 +52,16 @@ def _beam_and_truth(rec: dict, spec: dict, stage: list):
     stage[0] = "truth"
     from ..truth import bending_frequencies
 
-    tr = bending_frequencies(beam, model=spec["truth"], modes=spec["truth_modes"])
+    options = ({"selection": spec.get("target", "section")}
+               if spec["truth"] in ("plate", "mindlin") else {})
+    tr = bending_frequencies(beam, model=spec["truth"], modes=spec["truth_modes"], **options)
     omega = np.asarray(tr.omega, dtype=np.float64)
     rec.update(omega_truth=_floats(omega), truth_time_s=float(tr.time_s))
+    if tr.bending is not None:          # every symmetric mode, so targets need no FEM later
+        sym = [m for m in tr.all_modes if m["symmetry"] == "symmetric"]
+        rec.update(symmetric_lambda=_floats([m["lambda"] for m in sym]),
+                   symmetric_section_fraction=_floats([m["section_fraction"] for m in sym]),
+                   symmetric_participation=_floats([m["participation"] for m in sym]))
     if omega.size < spec["modes"] or not np.all(np.isfinite(omega)):
         raise ValueError(f"{omega.size} finite modes, the fit maps {spec['modes']}")
     stage[0] = "fit"

@@ -22,6 +22,11 @@ LAWS = ("beam", "paper")
 #: what the fit minimises (prbdm.constants.OBJECTIVES); a spec without ``objective`` (made
 #: before the choice existed) is ``eigenvalue``, the only objective there was
 DEFAULT_OBJECTIVE = "eigenvalue"
+#: what a plate or mindlin truth gives a new set: the bending spectrum (docs/conventions.md); a set
+#: made before the spectrum has no ``target`` in its spec and keeps the section rule's pick
+TARGETS = ("spectrum", "section")
+DEFAULT_TARGET = "spectrum"
+OLD_TARGET = "section"
 #: beams per batched fit (one task) for a new data set when --fit-batch is not given: measured
 #: best on 2 cores (benchmarks/bench_dataset.py); a set without ``fit_batch`` in its spec (made
 #: before chunking) is labelled one beam per task, as it was
@@ -38,14 +43,15 @@ FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "-
          "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
          "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
          "beam.max_half_width": "--max-half-width",
-         "fit_batch": "--fit-batch", "objective": "--objective"}
+         "fit_batch": "--fit-batch", "objective": "--objective", "target": "--target"}
 
 
 def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: str = "beam",
               poses="paper", starts: int | None = None, seed: int = 0, p: int | None = None,
               min_half_width: float | None = None, truth_modes: int | None = None,
               material: Material | None = None, fit_batch: int | None = None,
-              objective: str | None = None, max_half_width=None) -> dict:
+              objective: str | None = None, max_half_width=None,
+              target: str | None = None) -> dict:
     """The JSON-able description of a data set: everything that decides a record.
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
@@ -109,6 +115,10 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
         spec["fit_batch"] = check_fit_batch(fit_batch)
     if objective is not None:
         spec["objective"] = check_objective(objective)
+    if target is not None:
+        if target not in TARGETS:
+            raise BadInput(f"--target: must be one of {', '.join(TARGETS)}, got {target!r}")
+        spec["target"] = target
     return spec
 
 
@@ -188,6 +198,16 @@ COLUMNS = {
     "mass": ("double", "beam mass [kg]"),
     "omega_truth": ("list<double>", "truth bending frequencies, ascending [rad/s] (truth_modes)"),
     "truth_time_s": ("double", "wall time of the truth solve [s]"),
+    # plate and mindlin: every computed symmetric mode, so that any target (the bending spectrum,
+    # the section rule's pick) is recomputed without a FEM; null for the beam truths
+    "symmetric_lambda": ("list<double>", "plate, mindlin: every computed symmetric mode's "
+                         "nondimensional eigenvalue (omega / omega_p)^2, ascending, omega_p = "
+                         "t / L^2 sqrt(E / (12 rho (1 - nu^2)))"),
+    "symmetric_section_fraction": ("list<double>", "plate, mindlin: each symmetric mode's section "
+                                   "fraction s (its bending weight is clip((s - 1/2) / 0.6 + "
+                                   "1/2, 0, 1))"),
+    "symmetric_participation": ("list<double>", "plate, mindlin: each symmetric mode's transverse "
+                                "mass participation"),
     "gamma": ("list<double>", "fitted link lengths / L (joints + 1), sum 1"),
     "k": ("list<double>", "fitted stiffness correction factor per pose"),
     "loss_percent": ("double", "the paper's loss of the fit, docs/conventions.md §3 [%], whatever objective "

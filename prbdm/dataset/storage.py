@@ -18,9 +18,9 @@ import numpy as np
 
 from .. import __version__, files
 from ..errors import BadInput
-from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, FLAGS, FORMAT,
-                     FORMAT_VERSION, MANIFEST, arrow_schema, flatten, manifest_columns,
-                     spec_difference)
+from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, DEFAULT_TARGET, FLAGS,
+                     FORMAT, FORMAT_VERSION, MANIFEST, OLD_TARGET, arrow_schema, flatten,
+                     manifest_columns, spec_difference)
 
 
 def read_manifest(out) -> dict:
@@ -185,7 +185,7 @@ def open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> tuple
     means the set's value; absent from a set's spec (made before they existed) means 1 and
     ``eigenvalue``. An existing manifest's spec is never rewritten, so an older prbdm can still
     resume the set."""
-    defaults = {"fit_batch": 1, "objective": DEFAULT_OBJECTIVE}
+    defaults = {"fit_batch": 1, "objective": DEFAULT_OBJECTIVE, "target": OLD_TARGET}
     if (out / MANIFEST).exists():
         manifest = read_manifest(out)
         stored = {**defaults, **manifest["spec"]}
@@ -199,7 +199,8 @@ def open_set(out: Path, spec: dict, count: int, versions: dict, commit) -> tuple
                            f"use the same options{hint}, or another --out")
         return manifest, spec
     spec = {**spec, "fit_batch": spec.get("fit_batch", DEFAULT_FIT_BATCH),
-            "objective": spec.get("objective", DEFAULT_OBJECTIVE)}
+            "objective": spec.get("objective", DEFAULT_OBJECTIVE),
+            "target": spec.get("target", DEFAULT_TARGET)}
     others = [p.name for p in out.iterdir() if not p.name.startswith(".")]
     if others:
         raise BadInput(f"--out: {out} is not empty and not a prbdm data set (no {MANIFEST}); "

@@ -103,6 +103,7 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     """
     if model not in MODELS:
         raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
+    bending = None
     modes = _check_modes(model, modes)
     check_beam(beam, model)
     if elements is not None:
@@ -147,7 +148,8 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         unknown = set(options) - _MESH_OPTIONS - {"selection"} - own
         if unknown:
             raise BadInput(f"model {model!r}: unknown option {sorted(unknown)[0]!r}")
-        if options.get("selection", "section") not in SELECTIONS:
+        options.setdefault("selection", "spectrum")
+        if options["selection"] not in SELECTIONS:
             raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
                            f"got {options['selection']!r}")
         if model == "mindlin":
@@ -167,6 +169,8 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         # lambda = (omega / omega_p)^2 for both (for mindlin a function of t/L too)
         scale = plate_omega_scale(beam)
         symmetric_entries = out["entries"]
+        if options["selection"] == "spectrum":
+            bending = _spectrum(model, out, modes)
     omega = check_frequencies(model, out["lam"], scale)
     if symmetric_entries is None:
         entries = [{"omega": float(o), "freq_hz": float(o / (2 * math.pi)), "lambda": float(l),
@@ -177,6 +181,36 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
         for e in symmetric_entries:
             o = scale * math.sqrt(max(e["lambda"], 0.0))
             entries.append({"omega": o, "freq_hz": o / (2 * math.pi), **e})
+    if bending is not None:
+        for b in bending:
+            b["omega"] = float(scale * math.sqrt(b["lambda"]))
+            b["freq_hz"] = b["omega"] / (2 * math.pi)
     return TruthResult(model=model, omega=omega, freq_hz=omega / (2 * math.pi),
                        time_s=time.perf_counter() - t0, all_modes=entries, mesh=out["mesh"],
-                       omega_scale=scale, shapes=out.get("shapes"))
+                       omega_scale=scale, shapes=out.get("shapes"), bending=bending)
+
+
+def _spectrum(model: str, out: dict, modes: int) -> list:
+    """Replace the solver's picked eigenvalues ``out["lam"]`` by the bending spectrum of its
+    symmetric modes (:func:`prbdm.truth.modes.bending_spectrum`; the picked ones stay in the
+    entries as ``kept``), and return each bending mode's composition. BadInput where the modes
+    computed do not add up to enough bending weight."""
+    from .modes import bending_spectrum, bending_weight
+
+    sym = [e for e in out["entries"] if e["symmetry"] == "symmetric"]
+    lam = np.array([e["lambda"] for e in sym])
+    frac = np.array([e["section_fraction"] for e in sym])
+    for e, p in zip(sym, bending_weight(frac)):
+        e["bending_weight"] = float(p)
+    values, composition, length = bending_spectrum(lam, frac, modes)
+    if not length > modes:
+        raise BadInput(f"model {model!r}: the {len(sym)} symmetric modes computed add up to a "
+                       f"bending weight of {length:.3g}, and {modes} bending modes need more "
+                       f"than {modes}: this planform's modes are mostly chordwise (at most "
+                       f"{max(int(np.ceil(length)) - 1, 0)} bending modes can be given)")
+    out["lam"] = values
+    out["mesh"]["selection"] = "spectrum"
+    return [{"mode": j + 1, "lambda": float(values[j]),
+             "composition": [{"symmetric_mode": i + 1, "weight": w,
+                              "section_fraction": float(frac[i])} for i, w in comp]}
+            for j, comp in enumerate(composition)]

@@ -36,12 +36,52 @@ Rules (``selection``):
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["section_fraction", "select_bending", "SECTION_THRESHOLD", "SELECTIONS"]
+__all__ = ["section_fraction", "select_bending", "bending_weight", "bending_spectrum",
+           "SECTION_THRESHOLD", "SELECTIONS"]
 
 SECTION_THRESHOLD = 0.5
-SELECTIONS = ("section", "participation")
+#: ``spectrum`` (the default of plate and mindlin): the bending spectrum of ../SPEC §2.1, below;
+#: ``section`` and ``participation``: physical modes picked by the rules above
+SELECTIONS = ("spectrum", "section", "participation")
+#: a mode counts as bending with weight clip((s - 1/2) / BENDING_RAMP + 1/2, 0, 1): fully from
+#: s = 0.8, not at all below s = 0.2 (docs/conventions.md, "The bending spectrum")
+BENDING_RAMP = 0.6
+
+
+def bending_weight(fraction) -> np.ndarray:
+    """How much of one unit of section motion each mode carries: ``clip((s - 1/2) / 0.6 + 1/2,
+    0, 1)`` of its section fraction ``s``."""
+    s = np.asarray(fraction, dtype=np.float64)
+    return np.clip((s - SECTION_THRESHOLD) / BENDING_RAMP + 0.5, 0.0, 1.0)
+
+
+def bending_spectrum(lam, fraction, modes: int):
+    """The bending spectrum (docs/conventions.md): (lam_bend (R,), composition, length).
+
+    The symmetric modes, ascending, are laid end to end on a line, mode ``i`` occupying its
+    :func:`bending_weight` ``p_i``; bending eigenvalue ``j`` is the weighted geometric mean of the
+    ``lam_i`` over the unit interval ``[j - 1, j]``, each weighted by the length of its piece
+    there. ``composition[j]`` lists ``(i, w_ij)`` (0-based symmetric mode, weight) of the modes
+    that make it; ``length`` is the line's length ``sum p_i``. The modes computed must make a
+    line longer than ``modes`` (the caller checks ``length > modes``): otherwise the bending
+    eigenvalues it cannot complete are NaN."""
+    lam = np.asarray(lam, dtype=np.float64)
+    p = bending_weight(fraction)
+    ends = np.cumsum(p)
+    starts = ends - p
+    out = np.full(int(modes), np.nan)
+    composition = []
+    for j in range(int(modes)):
+        w = np.clip(np.minimum(ends, j + 1.0) - np.maximum(starts, float(j)), 0.0, None)
+        used = np.flatnonzero(w > 0)
+        composition.append([(int(i), float(w[i])) for i in used])
+        if w.sum() >= 1.0 - 1e-9:
+            out[j] = math.exp(float(w[used] @ np.log(lam[used])) / float(w[used].sum()))
+    return out, composition, float(ends[-1]) if len(ends) else 0.0
 
 
 def section_fraction(s: np.ndarray, G_lu, modal_mass: np.ndarray) -> np.ndarray:
@@ -59,6 +99,10 @@ def select_bending(participation, fraction, modes: int, selection: str = "sectio
     participation = np.asarray(participation)
     fraction = np.asarray(fraction)
     n = len(fraction)
+    if selection == "spectrum":
+        # the section rule's modes are reported beside the spectrum: complete when both are
+        kept, complete = select_bending(participation, fraction, modes, "section")
+        return kept, complete and float(bending_weight(fraction).sum()) > modes
     kept = np.zeros(n, dtype=bool)
     if selection == "participation":
         order = np.argsort(-participation, kind="stable")[:modes]

@@ -31,6 +31,9 @@ class TruthResult:
     mesh: dict = field(default_factory=dict)
     omega_scale: float = float("nan")
     shapes: dict | None = field(default=None, repr=False)
+    #: plate, mindlin: the bending spectrum's modes (``omega`` is theirs), each with its
+    #: composition (which symmetric modes, with which weights); None for beam and analytic
+    bending: list | None = None
 
     @property
     def lam(self) -> np.ndarray:
@@ -46,6 +49,14 @@ class TruthResult:
              "time_s": float(self.time_s),
              "participation": [float(m["participation"]) for m in self.all_modes if m["kept"]],
              "mesh": _jsonable(self.mesh)}
+        if self.bending is not None:
+            d["bending_modes"] = _jsonable(self.bending)
+            # the section rule's physical modes, beside the spectrum (docs/conventions.md)
+            kept = [m for m in self.all_modes if m.get("kept")]
+            d["section_rule"] = {"omega": [float(m["omega"]) for m in kept],
+                                 "section_fraction": [float(m["section_fraction"])
+                                                      for m in kept]}
+            d["participation"] = [float(m["participation"]) for m in kept]
         if all_modes:
             d["all_modes"] = [_jsonable(m) for m in self.all_modes]
         return d
