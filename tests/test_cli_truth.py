@@ -13,7 +13,7 @@ UNIFORM = {"x": [0, 1.0], "half_width": [0.1812, 0.1812], "thickness": 0.040532}
 
 
 def test_default_table(beam_file, capsys):
-    assert main(["truth", beam_file(TAPER)]) == 0
+    assert main(["truth", beam_file(TAPER), "--model", "beam"]) == 0
     out = capsys.readouterr().out
     assert "model beam" in out and "omega [rad/s]" in out and "participation" in out
     assert len([ln for ln in out.splitlines() if ln.strip()[:1].isdigit()]) == 5
@@ -60,7 +60,12 @@ def test_stdin(beam_file):
     proc = subprocess.run([sys.executable, "-m", "prbdm.cli", "truth", "-", "--json"],
                           input=json.dumps(TAPER), capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout)["model"] == "beam"
+    from prbdm.geometry import Beam
+    from prbdm.truth.choice import choose_truth
+
+    d = json.loads(proc.stdout)
+    # the default is auto: the truth `prbdm fit` takes for this panel, with its reason
+    assert (d["model"], d["reason"]) == choose_truth(Beam.from_dict(TAPER), "auto")
 
 
 @pytest.mark.parametrize("args, data, needle", [
@@ -69,7 +74,7 @@ def test_stdin(beam_file):
     (["--modes", "x"], TAPER, "--modes"),
     (["--model", "shell"], TAPER, "--model"),
     (["--model", "plate", "--modes", "99"], TAPER, "modes"),
-    (["--selection", "participation"], TAPER, "--selection"),
+    (["--model", "beam", "--selection", "participation"], TAPER, "--selection"),
     (["--plot", "figure.gif"], TAPER, "--plot"),
     ([], {"x": [0, 1], "half_width": [0.1, 0.0], "thickness": 0.01}, "half_width"),
     ([], {"x": [0, 1], "half_width": [0.1, 0.1], "thickness": 0.01, "colour": 1}, "colour"),

@@ -51,7 +51,7 @@ from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP2, ElementTriP3, ElementTriP4
 
 from ._linalg import ShiftInvertLanczos, refined_inverse
-from .modes import SECTION_THRESHOLD, section_fraction, select_bending
+from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 from .plate import _scaled, _section_operators, plate_mesh
 
 __all__ = ["solve_mindlin", "shear_stiffness", "SHEAR_FACTOR", "DEFAULT_DEGREE", "DEGREES"]
@@ -172,7 +172,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     xq = np.asarray(basis.global_coordinates())[0]
     shape_q = np.stack([np.asarray(fn[0]) for fn in basis.basis])     # (function, element, point)
     quad = SimpleNamespace(xq=xq, dx=basis.dx)
-    hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
+    hats = np.linspace(0.0, 1.0, SECTION_HATS + 1)      # fixed: see prbdm.truth.modes
     Hw, G = _section_operators(quad, hats)
     G_lu = splu(G)
 

@@ -44,6 +44,13 @@ __all__ = ["section_fraction", "select_bending", "bending_weight", "bending_spec
            "SECTION_THRESHOLD", "SELECTIONS"]
 
 SECTION_THRESHOLD = 0.5
+#: span-wise functions of the section projection: piecewise-linear hats on SECTION_HATS equal
+#: spans of the length, whatever the mesh, so that a section fraction is one number that mesh
+#: refinement converges to (hats tied to the mesh, 4 per element, moved s by 0.007 between the
+#: default and a fine mesh on random_beam(0, 0) and a blended plate mode 5 by 0.8 %; with 64
+#: fixed hats both meshes agree to 3e-4 in s and 0.09 % in the spectrum; hats much finer than
+#: the elements fit the discretisation's own wiggles, ~16 per element moved s by 0.1)
+SECTION_HATS = 64
 #: ``spectrum`` (the default of plate and mindlin): the bending spectrum of ../SPEC §2.1, below;
 #: ``section`` and ``participation``: physical modes picked by the rules above
 SELECTIONS = ("spectrum", "section", "participation")

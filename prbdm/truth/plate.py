@@ -53,7 +53,7 @@ from ._argyris import ArgyrisSpace
 from ._delaunay import half_planform_mesh
 from ._mapped import is_benign, mapped_half_mesh
 from ._linalg import ShiftInvertLanczos, refined_inverse
-from .modes import SECTION_THRESHOLD, section_fraction, select_bending
+from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 
 __all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
            "DEFAULT_ELEMENTS"]
@@ -189,7 +189,7 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
     clamped = space.get_dofs(root).all(["u", "u_x", "u_y", "u_xy", "u_yy", "u_n"])
     sym = space.get_dofs(axis).all(["u_y", "u_xy", "u_n"])
     anti = space.get_dofs(axis).all(["u", "u_x", "u_xx", "u_yy"])
-    hats = np.linspace(0.0, 1.0, 4 * info["elements"] + 1)
+    hats = np.linspace(0.0, 1.0, SECTION_HATS + 1)      # fixed: see prbdm.truth.modes
     Hw, G = _section_operators(space, hats)
     G_lu = splu(G)
 
