@@ -195,15 +195,16 @@ from prbdm.geometry import random_beam
 from prbdm.errors import BadInput
 from prbdm.truth import bending_frequencies
 seed, hw_min, modes, model = int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+kw = json.loads(sys.argv[6]) if len(sys.argv) > 6 else {}
 beam = lambda i: random_beam(seed, i, min_half_width=hw_min)
-bending_frequencies(beam(10 ** 6), model, modes=modes)                # warm-up, not counted
+bending_frequencies(beam(10 ** 6), model, modes=modes, **kw)          # warm-up, not counted
 print(json.dumps({"ready": True}), flush=True)
 for line in sys.stdin:
     i = int(line)
     b = beam(i)
     c, w = time.process_time(), time.perf_counter()
     try:
-        r = bending_frequencies(b, model, modes=modes)
+        r = bending_frequencies(b, model, modes=modes, **kw)
     except BadInput as exc:                     # a planform the model refuses
         print(json.dumps({"i": i, "refused": str(exc)[:80]}), flush=True)
         continue
@@ -216,14 +217,14 @@ for line in sys.stdin:
 """
 
 
-def _start_worker(tree, seed, hw_min, modes, threads, model):
+def _start_worker(tree, seed, hw_min, modes, threads, model, kw=None):
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
     if threads > 0:
         for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
             env[k] = str(threads)
     proc = subprocess.Popen([sys.executable, "-c", _WORKER, os.path.abspath(tree), str(seed),
-                             str(hw_min), str(modes), model], cwd=os.path.abspath(tree), env=env,
+                             str(hw_min), str(modes), model, json.dumps(kw or {})], cwd=os.path.abspath(tree), env=env,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if not json.loads(proc.stdout.readline()).get("ready"):
         raise RuntimeError(f"worker for {tree} did not start")
@@ -236,7 +237,8 @@ def _ask(proc, i):
     return json.loads(proc.stdout.readline())
 
 
-def compare(old_tree, panels, seed=0, hw_min=0.01, modes=5, threads=1, model="plate"):
+def compare(old_tree, panels, seed=0, hw_min=0.01, modes=5, threads=1, model="plate",
+            new_kw=None, old_kw=None):
     new_tree = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     trees = {"old": old_tree, "new": new_tree}
     print(f"== {model} truth, old vs new, side by side: {panels} random panels (seed {seed}, "
@@ -244,7 +246,10 @@ def compare(old_tree, panels, seed=0, hw_min=0.01, modes=5, threads=1, model="pl
     print(f"old: {os.path.abspath(old_tree)}\nnew: {os.path.abspath(new_tree)}")
     print("BLAS/OpenMP threads per worker: "
           + (str(threads) if threads > 0 else "environment default"))
-    workers = {k: _start_worker(t, seed, hw_min, modes, threads, model) for k, t in trees.items()}
+    kws = {"old": old_kw or {}, "new": new_kw or {}}
+    print(f"options: old {kws['old']}, new {kws['new']}")
+    workers = {k: _start_worker(t, seed, hw_min, modes, threads, model, kws[k])
+               for k, t in trees.items()}
     res = {"old": [], "new": []}
     try:
         for i in range(panels):
@@ -300,10 +305,17 @@ def main(argv=None):
                     help="BLAS/OpenMP threads per --compare worker (0: environment default)")
     ap.add_argument("--model", choices=("plate", "mindlin"), default="plate",
                     help="the truth model --compare times (default plate)")
+    ap.add_argument("--modes", type=int, default=5, help="bending modes asked for (--compare)")
+    ap.add_argument("--new-options", default="{}", metavar="JSON",
+                    help='options of this tree\'s solve, e.g. \'{"selection": "section"}\' '
+                         "(--compare; the old tree's: --old-options)")
+    ap.add_argument("--old-options", default="{}", metavar="JSON",
+                    help="options of OLD_TREE's solve (--compare)")
     args = ap.parse_args(argv)
     if args.compare:
-        compare(args.compare, args.panels, args.seed, args.min_half_width, threads=args.threads,
-                model=args.model)
+        compare(args.compare, args.panels, args.seed, args.min_half_width, modes=args.modes,
+                threads=args.threads, model=args.model, new_kw=json.loads(args.new_options),
+                old_kw=json.loads(args.old_options))
         return
     if args.validation:
         validation()

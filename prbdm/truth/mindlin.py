@@ -50,7 +50,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP2, ElementTriP3, ElementTriP4
 
-from ._linalg import ShiftInvertLanczos, refined_inverse
+from ._linalg import ShiftInvertLanczos, grown, refined_inverse
 from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 from .plate import _scaled, _section_operators, plate_mesh
 
@@ -211,7 +211,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
         kept, complete = select_bending(part, frac, want, selection)
         if complete or k >= cap:
             break
-        k = min(cap, 2 * k)
+        k = min(cap, grown(k))
 
     kept_idx = np.flatnonzero(kept)
     if len(kept_idx) < want:

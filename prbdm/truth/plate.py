@@ -52,7 +52,7 @@ from skfem.helpers import dd, ddot, trace
 from ._argyris import ArgyrisSpace
 from ._delaunay import half_planform_mesh
 from ._mapped import is_benign, mapped_half_mesh
-from ._linalg import ShiftInvertLanczos, refined_inverse
+from ._linalg import ShiftInvertLanczos, grown, refined_inverse
 from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 
 __all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
@@ -233,7 +233,7 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
             if complete or k >= cap:
                 found[name] = (lam, phi, part, frac, kept)
                 break
-            k = min(cap, 2 * k)
+            k = min(cap, grown(k))
 
     lam_s, phi_s, part_s, frac_s, kept_s = found["symmetric"]
     kept_idx = np.flatnonzero(kept_s)
