@@ -1,7 +1,7 @@
 """How a fitted PRBDM's error grows with the joint count n and with the largest pose, for both fit
 objectives: a table to pick the n a scene needs for a stated accuracy.
 
-    python benchmarks/objective_table.py --beams 12 --joints 3,4,5,6,7,8 --tip 0,0.4,0.8,1.5708 \
+    python notes/experiments/objective_table.py --beams 12 --joints 3,4,5,6,7,8 --tip 0,0.4,0.8,1.5708 \
         --json docs/objective-table.json
 
 Beams ``random_beam(1, i)``, i < beams (seed 1: never used for training), Euler-Bernoulli truth,
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
     if a.json:
         with open(a.json, "w") as f:
             json.dump(dict(beams=a.beams, seed=1, truth="beam", modes=MODES,
-                           command="python benchmarks/objective_table.py " +
+                           command="python notes/experiments/objective_table.py " +
                            " ".join(argv or __import__("sys").argv[1:]), rows=rows), f, indent=1)
     return 0
 

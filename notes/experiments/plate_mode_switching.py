@@ -1,6 +1,6 @@
 """How often the plate's kept bending modes are a close call, and what that does to a network.
 
-    python benchmarks/plate_mode_switching.py --data data/plate-n4-seed1 --panels 1000 \
+    python notes/experiments/plate_mode_switching.py --data data/plate-n4-seed1 --panels 1000 \
         --checkpoints checkpoints/plate-n4.safetensors --json docs/plate-mode-switching.json
 
 The plate truth keeps a symmetric mode as a bending mode when more than half of its modal mass
@@ -102,7 +102,7 @@ def main(argv=None) -> dict:
         out["networks"].append(row)
     if a.json:
         from prbdm.files import atomic_write
-        atomic_write(a.json, json.dumps(dict(out, command="python benchmarks/plate_mode_switching.py "
+        atomic_write(a.json, json.dumps(dict(out, command="python notes/experiments/plate_mode_switching.py "
                                              + " ".join(argv or sys.argv[1:])), indent=1) + "\n")
     return out
 

@@ -1,7 +1,7 @@
 """A trial: how well can any network learn the Mindlin plate's kept modes from the planform?
 
-    python benchmarks/frequency_mlp_trial.py                      # 256 x 3, without / with profile
-    python benchmarks/frequency_mlp_trial.py --width 1024 --only-profile   # a network that memorises
+    python notes/experiments/frequency_mlp_trial.py                      # 256 x 3, without / with profile
+    python notes/experiments/frequency_mlp_trial.py --width 1024 --only-profile   # a network that memorises
 
 A frequency-only MLP (no PRBDM, no physics loss), trained from scratch with the median (L1)
 regression of the network's frequency head on the wide Mindlin set (``datasets/mindlin-n4-truth``,

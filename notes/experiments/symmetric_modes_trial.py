@@ -1,6 +1,6 @@
 """Trial (not kept): learn every symmetric plate mode and apply the truth's section rule.
 
-    python benchmarks/symmetric_modes_trial.py --wide 2000 --narrow 4500 --workers 2
+    python notes/experiments/symmetric_modes_trial.py --wide 2000 --narrow 4500 --workers 2
 
 The plate truth keeps a symmetric mode as a bending mode when its section fraction is at least
 1/2 (:mod:`prbdm.truth.modes`), so its modes 3-4 jump where a chordwise mode takes a bending

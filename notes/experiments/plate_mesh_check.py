@@ -1,7 +1,7 @@
 """The plate truth's default mesh against a refined one, on panels of the plate data set's
 generator, and an independent check where two meshes disagree.
 
-    python benchmarks/plate_mesh_check.py --panels 24 --seed 5        # about 1 minute
+    python notes/experiments/plate_mesh_check.py --panels 24 --seed 5        # about 1 minute
 
 1. For ``random_beam(SEED, i, min_half_width=0.01)``, i < PANELS: the largest relative difference
    of bending modes 1-5 between the default mesh and ``elements=24, corner_ratio=0.003``

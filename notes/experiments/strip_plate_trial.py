@@ -1,6 +1,6 @@
 """A trial, not kept: can a mesh-free strip model of the plate be the network's physical base?
 
-    python benchmarks/strip_plate_trial.py datasets/plate-n4-seed1 200 32 4
+    python notes/experiments/strip_plate_trial.py datasets/plate-n4-seed1 200 32 4
 
 Kantorovich reduction of the Kirchhoff plate: w(x, y) = sum_j f_j(x) (y / max w)^(2 j), j < J
 (symmetric modes only), f_j clamped cubic B-splines on NK uniform intervals of the span; the

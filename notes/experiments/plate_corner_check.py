@@ -1,6 +1,6 @@
 """Sharp corners: how far the plate truth can be trusted on planforms with a very acute corner.
 
-    python benchmarks/plate_corner_check.py --panels 20000 --below 1.2 --workers 2 \
+    python notes/experiments/plate_corner_check.py --panels 20000 --below 1.2 --workers 2 \
         --json docs/plate-corner-check.json
 
 A random planform whose stations lie a millimetre apart with a large change of half-width between
@@ -94,7 +94,7 @@ def main(argv=None) -> dict:
     out = {"seed": a.seed, "panels": a.panels, "below": a.below, "solved": len(sharp),
            "share_below": {str(v): float(np.mean(corner < v)) for v in (0.4, 1, 2, 5)},
            "bands": rows, "errors": errors, "time_s": time.perf_counter() - t0,
-           "command": "python benchmarks/plate_corner_check.py " + " ".join(argv or sys.argv[1:])}
+           "command": "python notes/experiments/plate_corner_check.py " + " ".join(argv or sys.argv[1:])}
     if a.json:
         from prbdm.files import atomic_write
         atomic_write(a.json, json.dumps(out, indent=1) + "\n")

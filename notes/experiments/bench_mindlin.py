@@ -1,7 +1,7 @@
 """Speed and accuracy of the Mindlin plate truth, setting against setting, on the same panels.
 
-    python benchmarks/bench_mindlin.py --panels 10
-    python benchmarks/bench_mindlin.py --thin
+    python notes/experiments/bench_mindlin.py --panels 10
+    python notes/experiments/bench_mindlin.py --thin
 
 ``--panels`` random panels of the plate data sets' generator (``random_beam(11, i,
 min_half_width=0.01)``, the first ones the plate accepts) and four of them made 5 mm thick, each

@@ -1,13 +1,13 @@
 """The Reissner-Mindlin plate truth against the Kirchhoff plate and 3-D elasticity.
 
-    python benchmarks/mindlin_vs_solid.py [--solid docs/plate-vs-solid.json]
+    python notes/experiments/mindlin_vs_solid.py [--solid docs/plate-vs-solid.json]
                                           [--json docs/mindlin-vs-solid.json]
 
 Three checks, all printed and written to the JSON:
 
 1. thin limit (and locking): the square panel and the Table-2 beam at t/L = 0.001, Mindlin with
    P2, P3, P4 triangles against the Kirchhoff plate (``mindlin / plate - 1``, modes 1-4);
-2. for every panel of ``--solid`` (the stored 3-D results of benchmarks/plate_vs_solid.py, not
+2. for every panel of ``--solid`` (the stored 3-D results of notes/experiments/plate_vs_solid.py, not
    recomputed: the 3-D solves take minutes), Mindlin (default mesh) and the stored Kirchhoff
    plate against the stored 3-D frequency, ``model / 3-D - 1`` per mode, and the Mindlin mesh
    convergence, ``default / refined - 1`` with twice the span-wise resolution (``elements``
@@ -105,7 +105,7 @@ def main(argv=None) -> int:
     t_p = float(np.median([r["time_s"]["plate"] for r in rows]))
     print(f"3. median solve time per panel ({len(rows)} panels, default mesh, 4 modes): "
           f"mindlin {1e3 * t_m:.0f} ms, plate {1e3 * t_p:.0f} ms")
-    out = {"command": "python benchmarks/mindlin_vs_solid.py "
+    out = {"command": "python notes/experiments/mindlin_vs_solid.py "
                       + " ".join(sys.argv[1:] if argv is None else argv),
            "modes": MODES, "refined_elements": REFINED,
            "mindlin": "prbdm.truth mindlin, default mesh (P4 Lagrange, plate_mesh)",

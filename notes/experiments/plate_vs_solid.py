@@ -1,6 +1,6 @@
 """What the Kirchhoff plate leaves out: the plate truth against 3-D elasticity (issue 16 item 2).
 
-    python benchmarks/plate_vs_solid.py [--random 6] [--seed 16] [--json docs/plate-vs-solid.json]
+    python notes/experiments/plate_vs_solid.py [--random 6] [--seed 16] [--json docs/plate-vs-solid.json]
 
 For each panel, the first ``--modes`` symmetric bending frequencies of the plate truth (default
 mesh) and of the 3-D model of :mod:`prbdm.truth.solid` at two mesh levels (``--level`` and the
@@ -81,7 +81,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default="docs/plate-vs-solid.json")
     args = ap.parse_args(argv)
     rows = [compare(n, b, args.modes, args.level) for n, b in panels(args.random, args.seed)]
-    out = {"command": "python benchmarks/plate_vs_solid.py "
+    out = {"command": "python notes/experiments/plate_vs_solid.py "
                       + " ".join(sys.argv[1:] if argv is None else argv),
            "modes": args.modes, "levels": [args.level, args.level + 1],
            "plate": "prbdm.truth plate, default mesh",

@@ -1,6 +1,6 @@
 """Which poses to compare a network's candidate segmentations on, and what pooling networks buys.
 
-    python benchmarks/choice_poses.py --data data/beam-n4-seed1 \
+    python notes/experiments/choice_poses.py --data data/beam-n4-seed1 \
         --checkpoints checkpoints/beam-n4.safetensors,m0.safetensors,m1.safetensors,m0.safetensors+m1.safetensors
 
 For each checkpoint (``PATH@1`` uses only its first ensemble member; ``A+B`` pools single-network checkpoints trained on the same data set into an

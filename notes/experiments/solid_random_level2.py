@@ -1,6 +1,6 @@
 """The 3-D check of the random panels one mesh level further, and which plate model it supports.
 
-    python benchmarks/solid_random_level2.py --workers 2 --json docs/solid-random-level2.json
+    python notes/experiments/solid_random_level2.py --workers 2 --json docs/solid-random-level2.json
 
 docs/plate-vs-solid.json holds the 3-D model (:mod:`prbdm.truth.solid`) of the six random panels
 ``random_beam(16, i, min_half_width=0.01)`` at mesh levels 0 and 1, which were not converged (the
@@ -81,7 +81,7 @@ def main(argv=None):
         for model in ("plate", "mindlin"):
             print(f"  {model:8s}" + " ".join(f"{v:+6.2f}" for v in row[f"{model}_vs_level2"])
                   + "  |" + " ".join(f"{v:+6.2f}" for v in row[f"{model}_vs_extrapolated"]))
-    out = {"rows": rows, "command": "python benchmarks/solid_random_level2.py "
+    out = {"rows": rows, "command": "python notes/experiments/solid_random_level2.py "
            + " ".join(argv or sys.argv[1:])}
     if a.json:
         from prbdm.files import atomic_write

@@ -1,7 +1,7 @@
 """The two fit objectives side by side on held-out beams: worst per-mode frequency error, the
 paper's loss and fit time.
 
-    python benchmarks/bench_objective.py [--beams 12] [--joints 4] [--starts 64]
+    python notes/experiments/bench_objective.py [--beams 12] [--joints 4] [--starts 64]
 
 Beams ``random_beam(1, i)``, i < beams (seed 1: never used for training), beam truth, 4 modes,
 paper poses, one torch thread, all beams in one batched fit per objective.

@@ -1,6 +1,6 @@
 """A trial, not kept: do the plate's chordwise modes tell the network where its mode 4 goes wrong?
 
-    python benchmarks/chord_mode_trial.py --data datasets/mindlin-n4-seed1 \
+    python notes/experiments/chord_mode_trial.py --data datasets/mindlin-n4-seed1 \
         --checkpoint checkpoints/mindlin-n4.safetensors
 
 The kept bending modes 3-4 of the paper's wide panels mix and switch with symmetric *chordwise*

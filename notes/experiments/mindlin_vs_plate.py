@@ -1,6 +1,6 @@
 """What the Kirchhoff plate leaves out on the paper's panels: Kirchhoff against Reissner-Mindlin.
 
-    python benchmarks/mindlin_vs_plate.py --panels 80 --workers 2 --json docs/mindlin-vs-plate.json
+    python notes/experiments/mindlin_vs_plate.py --panels 80 --workers 2 --json docs/mindlin-vs-plate.json
 
 ``random_beam(seed, i, min_half_width=0.01)`` (the plate data sets' generator: full width 0.4-1 L,
 thickness 0.01-0.05 L) for i < ``--panels``, the ones the plate accepts: both truths at their
@@ -122,7 +122,7 @@ def main(argv=None) -> dict:
     out = {"seed": a.seed, "panels": a.panels, "refused": refused, "paired": int(paired.sum()),
            "bands": out_bands, "necks": out_necks, "share_over_1_percent": float(over), "rows": rows,
            "time_s": time.perf_counter() - t0,
-           "command": "python benchmarks/mindlin_vs_plate.py " + " ".join(argv or sys.argv[1:])}
+           "command": "python notes/experiments/mindlin_vs_plate.py " + " ".join(argv or sys.argv[1:])}
     if a.json:
         from prbdm.files import atomic_write
         atomic_write(a.json, json.dumps(out, indent=1) + "\n")
