@@ -139,29 +139,24 @@ def test_failure_leaves_no_files(tiny, tmp_path, monkeypatch):
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
 
 
-def test_stability_hook(monkeypatch, tmp_path):
-    # this checkout carries the suite's table writer; the hook finds it and can call it
-    import importlib.util
+def test_stability_hook(monkeypatch):
+    # the suite's writer is part of the library (prbdm.report.stability); the hook calls it
     import inspect
 
-    spec = importlib.util.spec_from_file_location("writer", rp._stability_script())
-    writer = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(writer)
-    assert list(inspect.signature(writer.section).parameters) == ["quick"]
-    fake = tmp_path / "stability.py"
-    fake.write_text("def section(quick):\n    return f'STABILITY quick={quick}'\n")
-    monkeypatch.setattr(rp, "_stability_script", lambda: fake)
+    from prbdm.report import stability
+
+    assert list(inspect.signature(stability.section).parameters) == ["quick"]
+    monkeypatch.setattr(stability, "section", lambda quick: f"STABILITY quick={quick}")
     md, note = rp.stability_section(rp.ReportConfig(quick=True))
     assert md == "STABILITY quick=True" and note == ""
     md, note = rp.stability_section(rp.ReportConfig(stability=False))
     assert md is None and "--no-stability" in note
-    fake.write_text("def section(quick):\n    raise ValueError('bad case')\n")
+
+    def bad(quick):
+        raise ValueError("bad case")
+    monkeypatch.setattr(stability, "section", bad)
     md, note = rp.stability_section(rp.ReportConfig())
     assert md is None and "ValueError" in note
-    # an installed package has no suite: a note, not an error
-    monkeypatch.setattr(rp, "_stability_script", lambda: None)
-    md, note = rp.stability_section(rp.ReportConfig())
-    assert md is None and "source checkout" in note
 
 
 def test_held_out_from_data_set(tmp_path):

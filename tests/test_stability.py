@@ -1,25 +1,24 @@
 """Stability on stiff and extreme cases (issue 7): every case of the suite as a pytest case, plus
 the library fixes the suite led to (each checked directly, so a revert fails here).
 
-The cases (tests/stability_cases.py) compare against independent references (analytic
+The cases (prbdm/report/stability_cases.py) compare against independent references (analytic
 cantilever, shooting ODE solution, exact scaling laws, a hand-written 2R model, finite
-differences, float64); the harness is tests/stability_checks.py. The quick cases run by default
+differences, float64); the harness is prbdm/report/stability_checks.py. The quick cases run by default
 (~15 s); the rest (plate truth, every n, every corner) under ``-m slow``, a known failure as an
 xfail with its reason. The table of docs/stability.md is ``python benchmarks/stability.py
---details``.
+--details`` (a thin script over :mod:`prbdm.report.stability`).
 """
-import importlib.util
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import stability_cases
 from prbdm.errors import BadInput
-from prbdm.geometry import Beam, MAX_PRBDM_WIDTH_RATIO
-from stability_checks import Case, run_case
+from prbdm.geometry import MAX_PRBDM_WIDTH_RATIO, Beam
+from prbdm.report import stability as writer
+from prbdm.report import stability_cases
+from prbdm.report.stability_checks import Case, run_case
 
 QUICK = [c for c in stability_cases.CASES if c.quick]
 SLOW = [pytest.param(c, id=c.name, marks=[pytest.mark.xfail(reason=c.known_failure, strict=True)]
@@ -51,15 +50,6 @@ def test_slow_case(case):
 
 
 # ----------------------------------------------------------------------------- the harness
-def _writer():
-    """benchmarks/stability.py, the table writer (a script, not a module on sys.path)."""
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "stability.py"
-    spec = importlib.util.spec_from_file_location("stability_writer", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def test_a_failing_check_fails_the_row_and_an_exception_is_caught():
     def bad(row):
         row.check("2 <= 1", 2.0, 1.0)
@@ -83,7 +73,6 @@ def test_markdown_section():
     rows.append(run_case(Case("broken", "nothing", lambda row: row.check("x", 3.0, 1.0), {})))
     rows.append(run_case(Case("known", "nothing", lambda row: row.check("y", 3.0, 1.0), {},
                               known_failure="y is too big")))
-    writer = _writer()
     md = writer.format_markdown(rows)
     assert md.startswith("## Stability on stiff and extreme cases")
     assert "2 of 4 cases pass" in md

@@ -63,8 +63,8 @@ def add_arguments(parser):
                         help="what the fits minimise and which network is measured "
                              "(beam-n4 or beam-n4-frequency; default: the paper's eigenvalue loss)")
     parser.add_argument("--no-stability", action="store_true",
-                        help="do not append the stability suite (benchmarks/stability.py; "
-                             "only in a source checkout)")
+                        help="do not append the stability suite (prbdm.report.stability, "
+                             "docs/stability.md)")
 
 
 def _command(args) -> str:

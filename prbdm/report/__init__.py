@@ -4,8 +4,9 @@
 renders them as ``report.md`` + PNG plots (+ ``report.json``), every file written atomically and
 only after everything has been computed, so a failed run leaves no half-written file.
 Modules: :mod:`~prbdm.report.measure` (held-out beams, timings, errors, scaling studies),
-:mod:`~prbdm.report.tables` (the Markdown), :mod:`~prbdm.report.figures` (the PNGs); this one
-puts them together and appends the stability suite when run from a source checkout.
+:mod:`~prbdm.report.tables` (the Markdown), :mod:`~prbdm.report.figures` (the PNGs),
+:mod:`~prbdm.report.stability` (the stability suite's section; cases in
+:mod:`~prbdm.report.stability_cases`); this one puts them together.
 
 Methods (docs/conventions.md §3 model, n = 4, 4 modes, paper poses, ``beam`` law unless noted):
 
@@ -51,31 +52,15 @@ __all__ = ["ReportConfig", "run_report", "write_report", "render_markdown", "hel
            "stability_section", "DEFAULT_STARTS", "JOINTS", "MODES"]
 
 
-def _stability_script() -> Path | None:
-    """``benchmarks/stability.py`` of the source checkout this package runs from, else None: the
-    stability suite is evidence kept in the repository (its cases are tests), not installed."""
-    root = Path(__file__).resolve().parents[2]
-    script = root / "benchmarks" / "stability.py"
-    return script if (root / "pyproject.toml").is_file() and script.is_file() else None
-
-
 def stability_section(cfg: ReportConfig) -> tuple[str | None, str]:
-    """The stability suite's Markdown, or None and a note saying why it is absent."""
+    """The stability suite's Markdown (:func:`prbdm.report.stability.section`), or None and a
+    note saying why it is absent."""
     if not cfg.stability:
         return None, "Skipped (`--no-stability`)."
-    script = _stability_script()
-    if script is None:
-        return None, ("Not included: the stability suite (`benchmarks/stability.py`, cases in "
-                      "`tests/stability_cases.py`) is part of the prbdm repository, not of the "
-                      "installed package; run `prbdm report` from a source checkout to append "
-                      "it, or see docs/stability.md.")
-    import importlib.util
-
     try:
-        spec = importlib.util.spec_from_file_location("_prbdm_stability_writer", script)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        return mod.section(quick=cfg.quick), ""
+        from . import stability
+
+        return stability.section(quick=cfg.quick), ""
     except Exception as exc:          # the report stands on its own; say what failed
         return None, f"Not included: the stability suite failed ({type(exc).__name__}: {exc})."
 

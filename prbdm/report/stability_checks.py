@@ -5,7 +5,8 @@ finite and ``value <= tol``, or when ``ok`` is given, on ``ok``; ``key=True`` ma
 the case is summarised by. :func:`run_case` turns a :class:`Case` into one dict (checks,
 condition numbers, gradient finiteness, time); an unexpected exception is a failed row, never a
 crash. Used by ``tests/test_stability.py`` (one pytest case per suite case) and by
-``benchmarks/stability.py`` (the table in docs/stability.md); not part of the installed package.
+:mod:`prbdm.report.stability` (the table in docs/stability.md, ``prbdm report``,
+``benchmarks/stability.py``).
 
 The references here are independent of the code under test: the analytic Euler-Bernoulli
 cantilever (``cos a cosh a = -1``), the mesh-free shooting solution of the variable-width beam

@@ -13,8 +13,8 @@ wrong number.
     rows = run_suite(quick=True)        # one dict per case (stability_checks.run_case)
 
 ``tests/test_stability.py`` runs each case as a pytest case (``quick=False`` ones under
-``-m slow``); ``benchmarks/stability.py`` prints the table of docs/stability.md. Evidence kept in
-the repository, not part of the installed package.
+``-m slow``); :mod:`prbdm.report.stability` writes the table of docs/stability.md (``prbdm
+report`` appends it; ``python benchmarks/stability.py`` prints it).
 """
 from __future__ import annotations
 
@@ -25,10 +25,10 @@ import numpy as np
 
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
-from stability_checks import (ALUMINIUM, ELASTOMER, EPS32, GAMMA4, RFE_BOUND, STEEL, TITANIUM,
-                              Case, Row, analytic_omega, beam_truth, is_sane, prbdm_lam, refused,
-                              rel_err, rfe_omega, run_case, shooting_error, tapered_panel, torch1,
-                              uniform_panel)
+from .stability_checks import (ALUMINIUM, ELASTOMER, EPS32, GAMMA4, RFE_BOUND, STEEL, TITANIUM,
+                               Case, Row, analytic_omega, beam_truth, is_sane, prbdm_lam, refused,
+                               rel_err, rfe_omega, run_case, shooting_error, tapered_panel, torch1,
+                               uniform_panel)
 
 def case_scaling(row: Row, beam: Beam, ref: Beam, analytic: bool):
     """Size, thickness and material enter only through lambda_0 = E t^2 / (rho L^4): the
