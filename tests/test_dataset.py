@@ -121,7 +121,8 @@ def test_generate_extend_and_plain_pyarrow(tmp_path):
 
     manifest = json.loads((out / D.MANIFEST).read_text())
     assert manifest["format"] == "prbdm-dataset" and manifest["count"] == 10
-    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH, "objective": "eigenvalue"}
+    assert manifest["spec"] == {**spec, "fit_batch": D.DEFAULT_FIT_BATCH, "objective": "eigenvalue",
+                                "target": "spectrum"}
     assert manifest["spec"]["seed"] == 7 and manifest["runs"][0]["fit_batch"] == 8
     assert {"python", "prbdm", "numpy", "pyarrow"} <= set(manifest["versions"])
     assert "git_commit" in manifest and len(manifest["runs"]) == 3

@@ -48,6 +48,11 @@ def add_arguments(parser):
                    "section rule's pick (the set's own for an existing one). Part of the spec")
     g.add_argument("--seed", type=positive_int(0), default=0, metavar="S",
                    help="random-beam stream (default 0); beam i is random_beam(S, i)")
+    g.add_argument("--family", choices=("paper", "smooth"), default="paper",
+                   help="the panels: 'paper' (default), the paper's jagged random planforms of "
+                   "steel 10-50 mm thick; 'smooth': uniform, tapered, trapezoidal and smoothly "
+                   "necked planforms 0.02-1 L wide, t/L 0.002-0.05, nu 0.2-0.45 "
+                   "(prbdm.planforms). Part of the spec")
     g.add_argument("--stations", type=positive_int(0), metavar="p",
                    help="interior planform stations of the random beams (default 10)")
     g.add_argument("--min-half-width", type=float, metavar="M",
@@ -102,7 +107,7 @@ def _generate(args) -> int:
                                              float_list(args.max_half_width, "--max-half-width",
                                                         positive=True)),
                              fit_batch=args.fit_batch, objective=args.objective,
-                             target=args.target)
+                             target=args.target, family=args.family)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         summary = dataset.generate(args.out, args.count, spec, workers=args.workers,

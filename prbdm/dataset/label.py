@@ -48,7 +48,8 @@ def _beam_and_truth(rec: dict, spec: dict, stage: list):
     stage[0] = "beam"
     beam = beam_for(spec, rec["index"])
     rec.update(x=beam.x.tolist(), half_width=beam.half_width.tolist(),
-               thickness=beam.thickness, length=beam.length, mass=beam.mass)
+               thickness=beam.thickness, nu=beam.material.nu, length=beam.length,
+               mass=beam.mass)
     stage[0] = "truth"
     from ..truth import bending_frequencies
 
@@ -57,11 +58,11 @@ def _beam_and_truth(rec: dict, spec: dict, stage: list):
     tr = bending_frequencies(beam, model=spec["truth"], modes=spec["truth_modes"], **options)
     omega = np.asarray(tr.omega, dtype=np.float64)
     rec.update(omega_truth=_floats(omega), truth_time_s=float(tr.time_s))
-    if tr.bending is not None:          # every symmetric mode, so targets need no FEM later
-        sym = [m for m in tr.all_modes if m["symmetry"] == "symmetric"]
-        rec.update(symmetric_lambda=_floats([m["lambda"] for m in sym]),
-                   symmetric_section_fraction=_floats([m["section_fraction"] for m in sym]),
-                   symmetric_participation=_floats([m["participation"] for m in sym]))
+    # plate, mindlin: every symmetric mode, so that targets need no FEM later (null otherwise)
+    sym = [m for m in tr.all_modes if m["symmetry"] == "symmetric" and "section_fraction" in m]
+    rec.update({f"symmetric_{k}": (_floats([m[key] for m in sym]) if sym else None)
+                for k, key in (("lambda", "lambda"), ("section_fraction", "section_fraction"),
+                               ("participation", "participation"))})
     if omega.size < spec["modes"] or not np.all(np.isfinite(omega)):
         raise ValueError(f"{omega.size} finite modes, the fit maps {spec['modes']}")
     stage[0] = "fit"

@@ -43,7 +43,8 @@ FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "-
          "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
          "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
          "beam.max_half_width": "--max-half-width",
-         "fit_batch": "--fit-batch", "objective": "--objective", "target": "--target"}
+         "fit_batch": "--fit-batch", "objective": "--objective", "target": "--target",
+         "beam.family": "--family"}
 
 
 def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: str = "beam",
@@ -51,7 +52,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
               min_half_width: float | None = None, truth_modes: int | None = None,
               material: Material | None = None, fit_batch: int | None = None,
               objective: str | None = None, max_half_width=None,
-              target: str | None = None) -> dict:
+              target: str | None = None, family: str = "paper") -> dict:
     """The JSON-able description of a data set: everything that decides a record.
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
@@ -89,6 +90,38 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
             raise BadInput("--poses: must be a non-empty list of finite angles [rad]")
     starts = DEFAULT_STARTS if starts is None else integer("starts", starts, 0)
     seed = integer("seed", seed, 0)
+    if family == "smooth":
+        # prbdm.planforms.smooth_beam: its own ranges; the paper generator's options do not apply
+        given = [n for n, v in (("--stations", p), ("--min-half-width", min_half_width),
+                                ("--max-half-width", max_half_width)) if v is not None]
+        if given:
+            raise BadInput(f"{given[0]}: an option of the paper's generator, not of --family "
+                           "smooth (uniform, tapered, trapezoidal and necked planforms, full "
+                           "width 0.02-1 L, t/L 0.002-0.05, nu 0.2-0.45)")
+        from ..planforms import SMOOTH_DEFAULTS
+
+        gen = {"family": "smooth", **{k: list(v) if isinstance(v, tuple) else v
+                                      for k, v in SMOOTH_DEFAULTS.items()}}
+    elif family == "paper":
+        gen = _paper_generator(p, min_half_width, max_half_width, integer)
+    else:
+        raise BadInput(f"--family: must be paper or smooth, got {family!r}")
+    gen["material"] = (material or Material()).to_dict()
+    spec = {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
+            "joints": joints, "modes": modes, "law": law, "poses": poses, "starts": starts}
+    if fit_batch is not None:
+        spec["fit_batch"] = check_fit_batch(fit_batch)
+    if objective is not None:
+        spec["objective"] = check_objective(objective)
+    if target is not None:
+        if target not in TARGETS:
+            raise BadInput(f"--target: must be one of {', '.join(TARGETS)}, got {target!r}")
+        spec["target"] = target
+    return spec
+
+
+def _paper_generator(p, min_half_width, max_half_width, integer) -> dict:
+    """The paper generator's options of a spec (:func:`prbdm.geometry.random_beam`), checked."""
     gen = dict(RANDOM_DEFAULTS)
     if p is not None:
         gen["p"] = integer("beam.p", p, 0)
@@ -108,18 +141,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
             raise BadInput(f"--min-half-width: must lie in [0, {lowest}) m (below the "
                            f"smallest --max-half-width), got {min_half_width!r}")
         gen["min_half_width"] = float(min_half_width)
-    gen["material"] = (material or Material()).to_dict()
-    spec = {"seed": seed, "beam": gen, "truth": truth, "truth_modes": truth_modes,
-            "joints": joints, "modes": modes, "law": law, "poses": poses, "starts": starts}
-    if fit_batch is not None:
-        spec["fit_batch"] = check_fit_batch(fit_batch)
-    if objective is not None:
-        spec["objective"] = check_objective(objective)
-    if target is not None:
-        if target not in TARGETS:
-            raise BadInput(f"--target: must be one of {', '.join(TARGETS)}, got {target!r}")
-        spec["target"] = target
-    return spec
+    return gen
 
 
 def check_fit_batch(value) -> int:
@@ -155,9 +177,15 @@ def spec_difference(old: dict, new: dict) -> str | None:
 
 
 def beam_for(spec: dict, index: int):
-    """Beam ``index`` of a data set: a pure function of (spec seed, generator options, index)."""
+    """Beam ``index`` of a data set: a pure function of (spec seed, generator options, index):
+    the paper's generator, or with ``beam.family = "smooth"`` :func:`prbdm.planforms.smooth_beam`
+    (other shapes, thicknesses and Poisson's ratios)."""
     gen = dict(spec["beam"])
     material = Material(**gen.pop("material"))
+    if gen.pop("family", "paper") == "smooth":
+        from ..planforms import smooth_beam
+
+        return smooth_beam(spec["seed"], index, material=material, **gen)
     return random_beam(spec["seed"], index, material=material, **gen)
 
 
@@ -194,6 +222,7 @@ COLUMNS = {
     "x": ("list<double>", "planform stations [m], x[0] = 0, x[-1] = L"),
     "half_width": ("list<double>", "half-width at each station [m]"),
     "thickness": ("double", "uniform thickness [m]"),
+    "nu": ("double", "Poisson's ratio of the beam (the smooth family draws one per beam)"),
     "length": ("double", "L [m]"),
     "mass": ("double", "beam mass [kg]"),
     "omega_truth": ("list<double>", "truth bending frequencies, ascending [rad/s] (truth_modes)"),
