@@ -1,0 +1,314 @@
+"""Truth model ``rod``: the geometrically exact planar Euler-Bernoulli rod (docs/large-deflection.md).
+
+A planar inextensible, unshearable (Kirchhoff) rod clamped at ``x = 0``, the panel's bending
+stiffness ``E I(s) = E 2 w(s) t^3 / 12`` and mass per length ``rho A(s) = rho 2 w(s) t``
+(``w`` piecewise linear through the stations), deflecting in the x-z plane; ``theta(s)`` is the
+tangent angle from +x towards +z. Rotary inertia of the section is left out by default (as in the
+Euler-Bernoulli ``beam`` truth); ``rotary=True`` adds ``rho I(s)``.
+
+- :func:`rod_static`: the large-deflection equilibrium under a dead tip force (magnitude, angle)
+  or a tip moment, or the load that gives a tip angle: the elastica boundary-value problem
+  ``(E I theta')' + F_z cos theta - F_x sin theta = 0``, ``theta(0) = 0``,
+  ``E I theta'(L) = M_tip``, solved by shooting on the root moment (DOP853, rtol 1e-12,
+  station by station) with Newton on the variational equation, by continuation in the load.
+- :func:`rod_frequencies`: small-vibration frequencies about the straight rod, a loaded
+  equilibrium (the load's geometric stiffness included) or a stress-free curved shape
+  (:func:`arc_shape`, :func:`chain_shape`, :func:`sampled_shape`).
+- :func:`rod_response`: the nonlinear free vibration released from rest in a static deflection.
+
+The dynamics use :class:`prbdm.truth._rod_dynamics.RodGalerkin` (the angle field on continuous
+piecewise polynomials, exact kinematics); it does not use the chain model :mod:`prbdm.model`.
+Everything is solved in nondimensional form (forces by ``E I_max / L^2``, time by
+``sqrt(rho A_max L^4 / E I_max)``), in float64; inputs and outputs are SI.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.linalg import eigh
+from scipy.optimize import brentq
+
+from ..errors import BadInput
+from ..geometry import Beam, check_beam
+from ._rod_dynamics import RodGalerkin
+
+__all__ = ["rod_static", "rod_frequencies", "rod_response", "RodEquilibrium", "RestShape",
+           "RodFrequencies", "RodResponse", "arc_shape", "chain_shape", "sampled_shape",
+           "MAX_LOAD", "MAX_MOMENT_ANGLE"]
+
+#: the largest nondimensional force P L^2 / (E I_max) accepted (the clamp's boundary layer,
+#: of length ~ L / sqrt(P L^2 / E I), is then 0.1 L; the tip of a uniform strip under a
+#: perpendicular force is then within 1.5e-4 rad of the force's direction)
+MAX_LOAD = 100.0
+#: the largest tip angle [rad] asked of a tip moment (a uniform strip closes into a circle at 2 pi)
+MAX_MOMENT_ANGLE = 2.0 * math.pi
+#: default discretisation of the dynamics (converged to ~1e-9 on the first 6 modes, see the docs)
+ELEMENTS, DEGREE = 12, 6
+_RTOL = 1e-12
+
+
+# ---------------------------------------------------------------------------- the beam, scaled
+@dataclass(frozen=True)
+class _Scaled:
+    L: float
+    EI: float        # E I_max [N m^2]
+    rhoA: float      # rho A_max [kg/m]
+    xs: np.ndarray   # stations / L
+    b: np.ndarray    # w / w_max at the stations
+    rotary: float    # t^2 / (12 L^2)
+
+    @property
+    def force(self):      # N per unit nondimensional force
+        return self.EI / self.L ** 2
+
+    @property
+    def moment(self):     # N m per unit nondimensional moment
+        return self.EI / self.L
+
+    @property
+    def time(self):       # s per unit nondimensional time
+        return math.sqrt(self.rhoA * self.L ** 4 / self.EI)
+
+
+def _scaled(beam: Beam) -> _Scaled:
+    check_beam(beam, "beam")
+    m = beam.material
+    L, t, wmax = beam.length, beam.thickness, float(beam.half_width.max())
+    return _Scaled(L=L, EI=m.E * 2 * wmax * t ** 3 / 12.0, rhoA=m.rho * 2 * wmax * t,
+                   xs=np.asarray(beam.x) / L, b=np.asarray(beam.half_width) / wmax,
+                   rotary=t ** 2 / (12.0 * L ** 2))
+
+
+def _number(v, name, lo=-math.inf, hi=math.inf, what=""):
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(v):
+        raise BadInput(f"{name}: must be a finite number{what}, got {v!r}")
+    if not lo <= v <= hi:
+        raise BadInput(f"{name}: must lie in [{lo:g}, {hi:g}]{what}, got {v!r}")
+    return float(v)
+
+
+def _discretisation(elements, degree):
+    if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) \
+            or not 2 <= elements <= 400:
+        raise BadInput(f"elements: must be an integer in [2, 400], got {elements!r}")
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) \
+            or not 1 <= degree <= 12:
+        raise BadInput(f"degree: must be an integer in [1, 12], got {degree!r}")
+    return int(elements), int(degree)
+
+
+# ---------------------------------------------------------------------------- statics: shooting
+@dataclass
+class RodEquilibrium:
+    """A static equilibrium of the rod under a dead tip load (SI).
+
+    ``s``, ``theta``, ``x``, ``z``: the shape sampled along the arc length [m, rad, m, m];
+    ``tip_x``, ``tip_z`` [m], ``tip_angle`` [rad]; the load: ``force`` (F_x, F_z) [N],
+    ``moment`` [N m]; ``load`` the nondimensional force ``P L^2 / (E I_max)`` (or moment
+    ``M L / (E I_max)``); ``stability`` d m(L) / d m(0) of the shooting (1 unloaded, > 0 on the
+    stable branch); ``time_s`` the solve time.
+    """
+
+    s: np.ndarray
+    theta: np.ndarray
+    x: np.ndarray
+    z: np.ndarray
+    tip_x: float
+    tip_z: float
+    tip_angle: float
+    force: tuple
+    moment: float
+    load: float
+    stability: float
+    time_s: float = 0.0
+    root_moment: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"model": "rod", "tip_x": self.tip_x, "tip_z": self.tip_z,
+                "tip_angle": self.tip_angle, "force": [float(f) for f in self.force],
+                "moment": self.moment, "load": self.load, "root_moment": self.root_moment,
+                "time_s": self.time_s}
+
+
+def _shoot(sc: _Scaled, F, M0, m0, samples=None):
+    """Integrate the elastica from the root with root moment ``m0`` (nondimensional).
+
+    State (theta, m, x, z, a, c): ``theta' = m / b``, ``m' = -(F_z cos theta - F_x sin theta)``,
+    ``x' = cos``, ``z' = sin``, and the variational pair a = d theta / d m0, c = d m / d m0.
+    Returns the tip state and, with ``samples``, the state at those arc lengths."""
+    Fx, Fz = F
+
+    def rhs(s, y, s0, s1, b0, b1):
+        b = b0 + (b1 - b0) * (s - s0) / (s1 - s0)
+        th, m, _, _, a, c = y
+        cs, sn = math.cos(th), math.sin(th)
+        return [m / b, -(Fz * cs - Fx * sn), cs, sn, c / b, (Fz * sn + Fx * cs) * a]
+
+    y = np.array([0.0, m0, 0.0, 0.0, 0.0, 1.0])
+    out = []
+    xs, bs = sc.xs, sc.b
+    last = xs.size - 2
+    for k in range(xs.size - 1):
+        s0, s1 = xs[k], xs[k + 1]
+        ev = None
+        if samples is not None:
+            ev = np.append(samples[(samples >= s0) & (samples < s1)], s1)
+        sol = solve_ivp(rhs, (s0, s1), y, method="DOP853", rtol=_RTOL, atol=1e-13,
+                        args=(s0, s1, bs[k], bs[k + 1]), t_eval=ev)
+        if not sol.success:
+            raise BadInput(f"load: the elastica could not be integrated ({sol.message})")
+        if samples is not None:
+            out.append(sol.y if k == last else sol.y[:, :-1])
+        y = sol.y[:, -1]
+    return y, (np.concatenate(out, axis=1) if samples is not None else None)
+
+
+def _newton(sc, F, M0, m0):
+    """Root moment m0 with m(1) = M0; returns (m0, tip state) or None."""
+    for _ in range(40):
+        y, _ = _shoot(sc, F, M0, m0)
+        r = y[1] - M0
+        if y[5] <= 0:
+            return None                                  # past a limit/bifurcation point
+        dm = r / y[5]
+        m0 -= dm
+        if abs(dm) < 1e-13 * (1 + abs(m0)):
+            y, _ = _shoot(sc, F, M0, m0)
+            return m0, y
+    return None
+
+
+def _path(sc, direction, kind, target_load=None, target_angle=None):
+    """Continuation in the load along ``direction`` (force unit vector, or the moment) up to the
+    nondimensional ``target_load``, or until the tip angle is ``target_angle``.
+
+    Returns (load, m0, tip state)."""
+    def loads(lam):
+        return (lam * direction, 0.0) if kind == "force" else (np.zeros(2), lam)
+
+    lam, m0, lam_prev, m_prev = 0.0, 0.0, None, None
+    y = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 1.0])
+    top = target_load if target_load is not None else MAX_LOAD
+    step = min(0.5, top)
+    while lam < top:
+        trial = min(lam + step, top)
+        F, M0 = loads(trial)
+        # predictor: the secant through the last two solutions (the unloaded slope at first)
+        if lam_prev is None:
+            guess = trial * (direction[1] * _lever(sc) if kind == "force" else 1.0)
+        else:
+            guess = m0 + (m0 - m_prev) / (lam - lam_prev) * (trial - lam)
+        got = _newton(sc, F, M0, guess)
+        # corrector accepted only on the same branch: the tip turns by a small angle per step
+        if got is None or abs(got[1][0] - y[0]) > 0.15:
+            step /= 4
+            if step < 1e-6 * max(1.0, lam):
+                raise BadInput(f"load: the equilibrium path has a limit or bifurcation point "
+                               f"near P L^2/(E I_max) = {trial:.4g}: loads beyond it are not "
+                               f"accepted (no stable equilibrium is continued past it)")
+            continue
+        m1, y1 = got
+        if target_angle is not None and abs(y1[0]) >= abs(target_angle):
+            def miss(l, lo=lam, hi=trial, mlo=m0, mhi=m1):
+                F_, M_ = loads(l)
+                g = _newton(sc, F_, M_, mlo + (mhi - mlo) * (l - lo) / (hi - lo))
+                if g is None:
+                    raise BadInput("tip_angle: the load path to this angle has a limit point")
+                return g[1][0] - target_angle
+            lstar = brentq(miss, lam, trial, xtol=1e-14, rtol=1e-14)
+            F_, M_ = loads(lstar)
+            m_, y_ = _newton(sc, F_, M_, m0 + (m1 - m0) * (lstar - lam) / (trial - lam))
+            return lstar, m_, y_
+        lam_prev, m_prev = lam, m0
+        lam, m0, y = trial, m1, y1
+        step = min(step * 1.5, 0.5 + 0.25 * lam)
+    if target_angle is not None:
+        raise BadInput(f"tip_angle: at most {abs(y[0]):.4g} rad is reached with a force at "
+                       f"this angle up to the largest load accepted, P L^2/(E I_max) = "
+                       f"{MAX_LOAD:g}; got {abs(target_angle):.4g}")
+    return lam, m0, y
+
+
+def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = math.pi / 2,
+               moment: float | None = None, tip_angle: float | None = None,
+               load: str = "force", samples: int = 401) -> RodEquilibrium:
+    """Large-deflection static equilibrium of ``beam`` under a dead tip load.
+
+    Give exactly one of ``force`` [N] (magnitude >= 0, direction ``force_angle`` [rad] from +x
+    towards +z: pi/2, the default, is perpendicular to the unloaded strip), ``moment`` [N m]
+    (positive bends towards +z) or ``tip_angle`` [rad]: the load of kind ``load`` (``"force"``
+    at ``force_angle``, or ``"moment"``) that gives this tip angle, found by continuation in the
+    load. ``samples``: points of the returned shape (the stations are added).
+
+    Raises BadInput beyond ``MAX_LOAD`` (P L^2 / (E I_max)) or ``MAX_MOMENT_ANGLE``, past a limit
+    or bifurcation point of the load path, or for a tip angle no accepted load reaches.
+    """
+    t0 = time.perf_counter()
+    sc = _scaled(beam)
+    fa = _number(force_angle, "force_angle", -math.pi, math.pi, " rad")
+    direction = np.array([math.cos(fa), math.sin(fa)])
+    if sum(v is not None for v in (force, moment, tip_angle)) != 1:
+        raise BadInput("load: give exactly one of force, moment or tip_angle")
+    if load not in ("force", "moment"):
+        raise BadInput(f"load: must be 'force' or 'moment', got {load!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) \
+            or not 2 <= samples <= 100000:
+        raise BadInput(f"samples: must be an integer in [2, 100000], got {samples!r}")
+    rest = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 1.0])
+    kind = "force" if force is not None else "moment" if moment is not None else load
+    if kind == "moment":
+        if tip_angle is not None:
+            ta = _number(tip_angle, "tip_angle", -MAX_MOMENT_ANGLE, MAX_MOMENT_ANGLE, " rad")
+            lam = ta / _compliance(sc)
+        else:
+            lam = _number(moment, "moment", what=" N m") / sc.moment
+            if abs(lam * _compliance(sc)) > MAX_MOMENT_ANGLE:
+                raise BadInput(f"moment: gives a tip angle of {lam * _compliance(sc):.4g} rad; "
+                               f"at most {MAX_MOMENT_ANGLE:.4g} rad is accepted")
+        m0 = lam
+    elif force is not None:
+        P = _number(force, "force", 0.0, MAX_LOAD * sc.force,
+                    f" N (P L^2/(E I_max) <= {MAX_LOAD:g})")
+        lam, m0, _ = _path(sc, direction, "force", target_load=P / sc.force) if P > 0 \
+            else (0.0, 0.0, rest)
+    else:
+        ta = _number(tip_angle, "tip_angle", -math.pi / 2, math.pi, " rad")
+        if ta == 0:
+            lam, m0 = 0.0, 0.0
+        else:
+            if math.sin(fa) * ta <= 0 or abs(math.sin(fa)) < 1e-3:
+                raise BadInput(f"tip_angle: a force at force_angle {fa:.4g} rad cannot bend the "
+                               f"tip to {ta:.4g} rad; give a tip angle of the sign of "
+                               f"sin(force_angle), with |sin(force_angle)| >= 1e-3")
+            lam, m0, _ = _path(sc, direction, "force", target_angle=ta)
+    F = lam * direction if kind == "force" else np.zeros(2)
+    M0 = 0.0 if kind == "force" else lam
+    s = np.unique(np.concatenate([np.linspace(0.0, 1.0, int(samples)), sc.xs]))
+    tipy, Y = _shoot(sc, F, M0, m0, samples=s)
+    return RodEquilibrium(s=s * sc.L, theta=Y[0], x=Y[2] * sc.L, z=Y[3] * sc.L,
+                          tip_x=float(tipy[2] * sc.L), tip_z=float(tipy[3] * sc.L),
+                          tip_angle=float(tipy[0]),
+                          force=(float(F[0] * sc.force), float(F[1] * sc.force)),
+                          moment=float(M0 * sc.moment), load=float(abs(lam)),
+                          stability=float(tipy[5]), time_s=time.perf_counter() - t0,
+                          root_moment=float(m0 * sc.moment))
+
+
+def _lever(sc: _Scaled) -> float:
+    """d m(0) / d F_z of the unloaded strip: the lever arm L (nondimensional 1)."""
+    return 1.0
+
+
+def _compliance(sc: _Scaled) -> float:
+    """int_0^1 ds / b(s) (piecewise-linear b, exactly): the tip angle per unit tip moment."""
+    total = 0.0
+    for s0, s1, b0, b1 in zip(sc.xs[:-1], sc.xs[1:], sc.b[:-1], sc.b[1:]):
+        total += (s1 - s0) * (math.log(b1 / b0) / (b1 - b0) if abs(b1 - b0) > 1e-12 * b0
+                              else 1.0 / b0)
+    return total
