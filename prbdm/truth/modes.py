@@ -87,7 +87,9 @@ def bending_spectrum(lam, fraction, modes: int):
         used = np.flatnonzero(w > 0)
         composition.append([(int(i), float(w[i])) for i in used])
         if w.sum() >= 1.0 - 1e-9:
-            out[j] = math.exp(float(w[used] @ np.log(lam[used])) / float(w[used].sum()))
+            # one mode alone is itself, bit for bit (a beam's or a slender panel's modes)
+            out[j] = (lam[used[0]] if len(used) == 1 else
+                      math.exp(float(w[used] @ np.log(lam[used])) / float(w[used].sum())))
     return out, composition, float(ends[-1]) if len(ends) else 0.0
 
 
