@@ -23,7 +23,7 @@ from scipy.optimize import minimize
 
 from prbdm.fit import DEFAULT_STARTS, fit_many, fit_prbdm, gamma_from_z, start_points
 from prbdm.geometry import random_beam
-from prbdm.model import BeamTensors, GAMMA_MAX, GAMMA_MIN, eigenvalues, loss_percent, make_poses
+from prbdm.model import GAMMA_MAX, GAMMA_MIN, BeamTensors, eigenvalues, loss_percent, make_poses
 from prbdm.truth import bending_frequencies
 
 

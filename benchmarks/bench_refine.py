@@ -30,8 +30,14 @@ import torch
 
 from prbdm import dataset as ds
 from prbdm import surrogate as sg
-from prbdm.fit import (FIXED_STARTS, REFINE_CANDIDATES, fit_many, gamma_from_z, refine_starts,
-                       start_points)
+from prbdm.fit import (
+    FIXED_STARTS,
+    REFINE_CANDIDATES,
+    fit_many,
+    gamma_from_z,
+    refine_starts,
+    start_points,
+)
 from prbdm.geometry import Material
 
 DEFAULT_VARIANTS = "fit;all,15;all,20;default,10;default,15;default,20;default,30;fixed,15;top2,15"

@@ -3,8 +3,9 @@
     python benchmarks/truth_choice.py [--panels 20] [--json docs/truth-choice.json]
 
 For families of random planforms (the paper's generator with the half-width scaled to at most
-``h`` L, and at least h/50 so the plate can mesh them; thickness min(0.01, 0.4 h) L), both truths are solved and the per-mode
-difference ``|omega_beam / omega_plate - 1|`` is tabulated against the full width ratio
+``h`` L, and at least h/50 so the plate can mesh them; thickness min(0.01, 0.4 h) L), both truths
+are solved and the per-mode difference ``|omega_beam / omega_plate - 1|`` is tabulated against
+the full width ratio
 ``b/L = 2 max(w) / L``. ``prbdm.truth.choice`` turns the table into the rule of ``--truth auto``.
 """
 from __future__ import annotations

@@ -53,8 +53,14 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from prbdm.commands.demo import DEMO_BEAM  # noqa: E402
-from prbdm.export import (mujoco_free_vibration, mujoco_linear_frequencies,  # noqa: E402
-                          prbdm_from_fit, run_fit, to_mjcf, to_urdf)
+from prbdm.export import (  # noqa: E402
+    mujoco_free_vibration,
+    mujoco_linear_frequencies,
+    prbdm_from_fit,
+    run_fit,
+    to_mjcf,
+    to_urdf,
+)
 from prbdm.geometry import Beam, random_beam  # noqa: E402
 from prbdm.simulate import simulate  # noqa: E402
 

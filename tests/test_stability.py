@@ -158,6 +158,7 @@ def test_float32_precision_warning():
     without a word: now a PrecisionWarning naming the dtype, the condition estimate and float64.
     Autograd and batching are untouched; float64 and well-conditioned float32 stay silent."""
     import torch
+
     from prbdm import model
     from prbdm.geometry import random_beam
     beams = [random_beam(7, i) for i in range(3)]

@@ -33,7 +33,7 @@ def main(argv=None) -> int:
         _cli.fail(PROG, f"{src} is not a data set folder (no _manifest.json or parts)")
     if dst.resolve() == src.resolve():
         _cli.fail(PROG, f"dst: must differ from src ({src}); packing replaces dst")
-    import pyarrow as pa            # after the arguments: --help works without the [data] extra
+    import pyarrow as pa  # after the arguments: --help works without the [data] extra
     import pyarrow.parquet as pq
 
     tables = [pq.read_table(p) for p in parts]

@@ -157,15 +157,14 @@ for _d in data_sets:
 if not data_sets or len({Path(d).resolve() for d in data_sets}) != len(data_sets):
     _fail(f"--data: one or more distinct data set folders, comma-separated, got {data!r}")
 
-import torch  # noqa: E402  (after the configuration, as in nanoGPT)
+import torch  # after the configuration, as in nanoGPT (E402 is off for this file)
 
-from prbdm import dataset as ds  # noqa: E402
-from prbdm import model  # noqa: E402
-from prbdm import objectives  # noqa: E402
-from prbdm import surrogate as sg  # noqa: E402
-from prbdm.surrogate.checkpoint import member_prefixes  # noqa: E402
-from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet  # noqa: E402
-from prbdm.dataset.schema import flatten  # noqa: E402
+from prbdm import dataset as ds
+from prbdm import model, objectives
+from prbdm import surrogate as sg
+from prbdm.dataset.schema import flatten
+from prbdm.surrogate.checkpoint import member_prefixes
+from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
 
 if device == "auto":
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -201,7 +200,8 @@ for _d in data_sets:
                       f"{', '.join(SAME_FIELDS)}, material")
     sets.append(_record)
     tables.append(_t)
-import pandas as pd  # noqa: E402
+import pandas as pd
+
 manifest, spec = ds.read_manifest(data_sets[0]), sets[0]["spec"]
 table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
 records_read = sum(s_["records_ok_read"] for s_ in sets)

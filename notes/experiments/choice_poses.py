@@ -1,16 +1,19 @@
 """Which poses to compare a network's candidate segmentations on, and what pooling networks buys.
 
     python notes/experiments/choice_poses.py --data data/beam-n4-seed1 \
-        --checkpoints checkpoints/beam-n4.safetensors,m0.safetensors,m1.safetensors,m0.safetensors+m1.safetensors
+        --checkpoints checkpoints/beam-n4.safetensors,m0.safetensors,m1.safetensors,\
+m0.safetensors+m1.safetensors
 
-For each checkpoint (``PATH@1`` uses only its first ensemble member; ``A+B`` pools single-network checkpoints trained on the same data set into an
-in-memory ensemble, as ``train_surrogate.py --members=2`` does) and each choice rule — the first
-and last poses (format-1 checkpoints), the two Gauss poses (:func:`prbdm.surrogate.gauss_select_poses`,
-the default since format 2), all poses — the prediction runs through
+For each checkpoint (``PATH@1`` uses only its first ensemble member; ``A+B`` pools
+single-network checkpoints trained on the same data set into an in-memory ensemble, as
+``train_surrogate.py --members=2`` does) and each choice rule — the first and last poses
+(format-1 checkpoints), the two Gauss poses (:func:`prbdm.surrogate.gauss_select_poses`, the
+default since format 2), all poses — the prediction runs through
 :meth:`prbdm.surrogate.Surrogate.predict` and its PRBDM is re-evaluated against the data set's
-truth (docs/conventions.md §3 loss, %). Printed: median and 95th percentile of the loss, the share of beams on
-which the rule keeps the same candidate as the all-pose rule, and the median loss of the best
-candidate with SCFs projected on the *true* frequencies (what the candidates can reach).
+truth (docs/conventions.md §3 loss, %). Printed: median and 95th percentile of the loss, the
+share of beams on which the rule keeps the same candidate as the all-pose rule, and the median
+loss of the best candidate with SCFs projected on the *true* frequencies (what the candidates can
+reach).
 """
 from __future__ import annotations
 

@@ -59,8 +59,9 @@ def main(argv=None) -> dict:
     corner = np.array([smallest_corner(random_beam(a.seed, i, min_half_width=0.01))[0]
                        for i in range(a.panels)])
     sharp = [int(i) for i in np.flatnonzero(corner < a.below)]
+    shares = ", ".join(f"{100 * np.mean(corner < v):.2f} %" for v in (0.4, 1, 2, 5))
     print(f"{a.panels} panels random_beam({a.seed}, i, min_half_width=0.01): smallest corner "
-          f"below 0.4 / 1 / 2 / 5 degrees on {', '.join(f'{100 * np.mean(corner < v):.2f} %' for v in (0.4, 1, 2, 5))}; "
+          f"below 0.4 / 1 / 2 / 5 degrees on {shares}; "
           f"solving the {len(sharp)} below {a.below:g} degrees at two meshes", flush=True)
     jobs = [(a.seed, i) for i in sharp]
     if a.workers > 1:

@@ -10,11 +10,11 @@ small change of the planform can swap which of two neighbouring modes is kept, a
 frequency jumps. No smooth function of the geometry (a network) can follow such a jump.
 
 For each held-out panel of a plate data set (its stored truth is recomputed here, symmetric
-modes with their section fractions, and checked equal to the stored one), this script records, per kept mode 1..r, whether its section
-fraction is within 0.1 of 1/2 (the truth's own ``ambiguous`` flag) or a neighbouring unkept mode's
-is; then prints the share of panels with a close call per mode, and each network's error of its
-own truth-frequency prediction per mode, median and p95, split into panels whose modes 1..j are
-all clear and the rest.
+modes with their section fractions, and checked equal to the stored one), this script records,
+per kept mode 1..r, whether its section fraction is within 0.1 of 1/2 (the truth's own
+``ambiguous`` flag) or a neighbouring unkept mode's is; then prints the share of panels with a
+close call per mode, and each network's error of its own truth-frequency prediction per mode,
+median and p95, split into panels whose modes 1..j are all clear and the rest.
 """
 from __future__ import annotations
 

@@ -23,7 +23,6 @@ import sys
 import time
 from pathlib import Path
 
-
 from prbdm.geometry import Beam, random_beam
 from prbdm.truth import bending_frequencies
 from prbdm.truth.solid import DEFAULT_LEVEL, solve_solid

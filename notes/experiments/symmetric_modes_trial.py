@@ -93,6 +93,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     import torch
+
     from prbdm import surrogate as sg
 
     torch.manual_seed(0)
@@ -125,7 +126,7 @@ def main(argv=None):
                               torch.nn.SiLU(), torch.nn.Linear(W, 2 * S))
     opt = torch.optim.AdamW(net.parameters(), lr=2e-3, weight_decay=1e-5)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=a.epochs)
-    for ep in range(a.epochs):
+    for _epoch in range(a.epochs):
         perm = torch.randperm(len(X))
         for i in range(0, len(X), 128):
             r = perm[i:i + 128]

@@ -60,7 +60,7 @@ def plot_error_vs_time(res: dict) -> bytes:
         for col, (stat, label) in enumerate((("loss", "loss (docs/conventions.md §3) [%]"),
                                              ("worst", "worst per-mode frequency error [%]"))):
             ax = axes[row, col]
-            for i, m in enumerate(res["methods"]):
+            for m in res["methods"]:
                 e = m["errors"][ref]
                 color = colors[m["key"]]
                 if e.get("reference"):

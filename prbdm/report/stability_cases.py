@@ -25,10 +25,31 @@ import numpy as np
 
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
-from .stability_checks import (ALUMINIUM, ELASTOMER, EPS32, GAMMA4, RFE_BOUND, STEEL, TITANIUM,
-                               Case, Row, analytic_omega, beam_truth, is_sane, prbdm_lam, refused,
-                               rel_err, rfe_omega, run_case, shooting_error, tapered_panel, torch1,
-                               uniform_panel)
+
+from .stability_checks import (
+    ALUMINIUM,
+    ELASTOMER,
+    EPS32,
+    GAMMA4,
+    RFE_BOUND,
+    STEEL,
+    TITANIUM,
+    Case,
+    Row,
+    analytic_omega,
+    beam_truth,
+    is_sane,
+    prbdm_lam,
+    refused,
+    rel_err,
+    rfe_omega,
+    run_case,
+    shooting_error,
+    tapered_panel,
+    torch1,
+    uniform_panel,
+)
+
 
 def case_scaling(row: Row, beam: Beam, ref: Beam, analytic: bool):
     """Size, thickness and material enter only through lambda_0 = E t^2 / (rho L^4): the
@@ -242,6 +263,7 @@ def _degenerate_2r():
     two eigenvalues coincide): solve A_12 = 0 and A_11 = A_22 for (theta_2, gamma_1)."""
     torch = torch1()
     from scipy.optimize import fsolve
+
     from prbdm import model
     bt = model.BeamTensors.from_beams(uniform_panel(0.2, 0.02))
 

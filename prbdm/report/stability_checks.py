@@ -149,6 +149,7 @@ def fem_cond(beam, modes=5):
     """cond of the beam truth's free-DOF stiffness as assembled (nondimensional, graded mesh) and
     after the symmetric diagonal scaling D K D that solve_beam factorises."""
     from skfem import Basis, MeshLine
+
     from prbdm.truth._hermite import LocalHermite
     from prbdm.truth.beam import beam_nodes, stiffness
     L = beam.length
