@@ -71,7 +71,7 @@ def main(argv=None) -> dict:
     f_prbdm = pred.omega[:, 0, :] / two_pi          # (B, 4) its PRBDM's, pose 0 (theta = 0.1 rad)
 
     # The network proposes several segmentations and keeps the one whose PRBDM best matches its own
-    # predicted frequencies (docs/surrogate.md section 2). Where two are nearly as good the choice
+    # predicted frequencies (docs/validation.md). Where two are nearly as good the choice
     # flips from one design to the next, and gamma, k and the PRBDM's low modes jump: an optimiser
     # working on the PRBDM would see a step there, so say where.
     flips = np.flatnonzero(np.diff(pred.extra.get("selected", np.zeros(len(designs), int))))
@@ -133,7 +133,7 @@ def main(argv=None) -> dict:
             cells += f"{fn(lo):9.3f}" if lo is not None else f"{'':9s}"
             print(f"{name if stat == 'median' else '':28s}{stat:>6s}{cells}".rstrip())
     print("(the PRBDMs' first-mode errors are the paper's loss at work: it weighs each mode by its "
-          "eigenvalue, so mode 4 dominates; docs/fit.md §3)")
+          "eigenvalue, so mode 4 dominates; docs/howto/fit.md)")
 
     # ---------------------------------------------------------------- time
     n = args.designs

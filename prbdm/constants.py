@@ -16,14 +16,14 @@ OBJECTIVES = ("eigenvalue", "frequency")
 DEFAULT_STARTS = 64
 
 #: refinement from a network's answer: its best candidate segmentations, and iterations
-#: (prbdm.fit.refine_starts; measured in docs/fit.md)
+#: (prbdm.fit.refine_starts; measured in docs/validation.md)
 REFINE_CANDIDATES = 4
 REFINE_ITER = 15
 
 #: a checkpoint whose own held-out test (its metadata's ``test``) is worse than this is announced
 #: as a rough estimate whenever it answers (prbdm.surrogate.Surrogate.accuracy_warning): the PRBDM's
 #: paper loss median [%] and the median error of any predicted truth frequency [%]. The shipped
-#: beam networks are a decade inside both (docs/surrogate.md); a plate network may not be.
+#: beam networks are a decade inside both (docs/validation.md); a plate network may not be.
 ACCURACY_WARN_LOSS_PERCENT = 2.0
 ACCURACY_WARN_FREQ_PERCENT = 1.0
 
@@ -31,7 +31,7 @@ ACCURACY_WARN_FREQ_PERCENT = 1.0
 #: ``test.by_width``, written by training/train_surrogate.py): an answer quotes, and is judged by,
 #: the accuracy measured on test panels of its own width, where the checkpoint has one. One
 #: network can be within 1 % on panels 0.05-0.2 L wide and 10 % off on the paper's 0.4-1 L ones
-#: (`mindlin-n4`, docs/surrogate.md); a single number would call both rough, or both fine. A band
+#: (`mindlin-n4`, docs/validation.md); a single number would call both rough, or both fine. A band
 #: is recorded only with at least ACCURACY_BAND_MIN_BEAMS test panels (the median of 100 skewed
 #: losses is still uncertain by a tenth of their spread or so: a band just under a limit can be
 #: chance, which the shipped checkpoints' bands are checked against held-out sets for).
@@ -42,7 +42,7 @@ ACCURACY_BAND_MIN_BEAMS = 100
 #: over length): below it the beam network was measured closer to the plate truth than the plate
 #: network (`python benchmarks/plate_width_bands.py --data datasets/plate-n4-narrow-seed3
 #: --checkpoints checkpoints/plate-n4.safetensors,checkpoints/beam-n4.safetensors`,
-#: docs/surrogate.md); between 0.05 L and this the plate is the truth, the beam network the answer.
+#: docs/validation.md); between 0.05 L and this the plate is the truth, the beam network the answer.
 #: The Kirchhoff plate network's rule only: a Mindlin network was measured closer to the Mindlin
 #: truth than the beam network down to 0.05 L (`--data datasets/mindlin-n4-narrow-seed3 --auto
 #: mindlin`: 0.86 % against 3.8 % at 0.05-0.1 L)

@@ -2,7 +2,7 @@
 
 ``prbdm fit --json`` and ``prbdm predict --json`` write it as ``beam_fingerprint``;
 ``prbdm export`` and ``prbdm simulate`` (``--from``) refuse a result whose fingerprint differs from
-the beam's (docs/export.md). The fingerprint is the first 16 hex digits of the SHA-256 of a
+the beam's (docs/howto/export-and-simulate.md). The fingerprint is the first 16 hex digits of the SHA-256 of a
 canonical text: the stations ``x``, the ``half_width`` values, the ``thickness`` and the material's
 ``E``, ``rho``, ``nu``, each number rounded to 12 significant digits, so that the same beam read
 back from a JSON file, or written by another program with a last-digit rounding difference, gets

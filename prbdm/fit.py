@@ -56,7 +56,7 @@ INIT_Z_FLOOR = 0.02
 
 def default_starts(n: int) -> int:
     """Start points used when none are given: 64 up to 4 joints, 128 beyond (measured: with
-    fewer, more than 1 beam in 16 misses the best optimum by over 1 %; see docs/fit.md §4)."""
+    fewer, more than 1 beam in 16 misses the best optimum by over 1 %; see docs/validation.md)."""
     return DEFAULT_STARTS if n <= 4 else 2 * DEFAULT_STARTS
 
 
@@ -166,7 +166,7 @@ def start_points(n: int, starts: int, seed: int, dtype=torch.float64) -> torch.T
     its volume and holds many narrow local optima next to each other; flat draws put one or two
     starts there. Measured on 60 beams of seed 7, 5 seeds each, n = 4, 64 starts: runs more than
     1 % above the best loss found for the beam fell from 29 of 300 (two fixed + flat draws) to 3
-    of 300, at no extra time per beam (``benchmarks/fit_quality.py starts``; docs/fit.md §4)."""
+    of 300, at no extra time per beam (``benchmarks/fit_quality.py starts``; docs/validation.md)."""
     fixed = [uniform_gamma(n, dtype), torch.full((n + 1,), 1.0 / (n + 1), dtype=dtype)]
     fixed += [long_root_gamma(n, g0, dtype) for g0 in LONG_ROOTS]
     fixed = fixed[:starts]
@@ -649,7 +649,7 @@ def _result(problem: _Problem, b1: BeamTensors, z, omega_truth, lam_hat,
 
 #: a network-then-refined fit: the network's best REFINE_CANDIDATES candidates
 #: (``Prediction.ranked_candidates``) and the four fixed starts, REFINE_ITER iterations. Measured
-#: on 200 held-out beams with the two-member beam-n4 (docs/surrogate.md §5): a median 1.06 times
+#: on 200 held-out beams with the two-member beam-n4 (docs/validation.md): a median 1.06 times
 #: the optimised loss at 1/10.8 of its time in batches of 8 beams, 1/18 in batches of 40, 1/7.7
 #: one beam at a time (all 8 candidates, 12 starts: 1.05 at 1/8.6; 20 iterations: 1.03 at 1/9.1).
 #: Both numbers live in prbdm.constants.
@@ -659,7 +659,7 @@ def refine_starts(gamma) -> np.ndarray:
     """Start points for a short refinement: the given segmentations (B, n+1) or (B, H, n+1), e.g.
     a network's candidates, followed by the fit's four fixed starts (rigid-finite-element, equal
     links, the two long roots of :func:`start_points`): (B, H + 4, n+1), for
-    ``fit_many(..., init_gamma=...)``. Measured on 200 held-out beams (docs/surrogate.md): with
+    ``fit_many(..., init_gamma=...)``. Measured on 200 held-out beams (docs/validation.md): with
     the two long-root starts added, 20 iterations from a network's 4 candidates ended a median
     1.16 times the optimised loss instead of 1.29 (the single-network beam-n4 of 2026-12-02)."""
     g = np.asarray(gamma, dtype=np.float64)

@@ -185,7 +185,7 @@ class Beam:
         if unknown:
             raise BadInput(f"material: unknown key {unknown[0]!r}; allowed keys are E, nu, rho")
         material = Material(**mat)          # the values given are checked first
-        # all or nothing (docs/choices.md, "Material block"): a block with only E would take
+        # all or nothing (docs/conventions.md §6, "Material block"): a block with only E would take
         # steel's density, and a 69 GPa aluminium panel would weigh 2.9x what it does
         missing = [key for key in ("E", "rho", "nu") if key not in mat]
         if "material" in data and missing:
@@ -304,7 +304,7 @@ MAX_PLATE_THICKNESS_RATIO = 0.5
 #: them) that the plate mesh can only fill with slivers, whose stiffness matrix is numerically
 #: singular: on random panels with corners below 0.61 degrees the plate's first two frequencies
 #: changed by up to a factor 9 between two mesh densities, with no warning; between 1 and 1.2
-#: degrees by at most 1.8e-4 (docs/truth.md, "Sharp corners"). Random beams: 2.9 % of the paper's
+#: degrees by at most 1.8e-4 (docs/validation.md, "Sharp corners"). Random beams: 2.9 % of the paper's
 #: generator (seed 0)
 MIN_PLATE_CORNER_DEGREES = 1.0
 #: hard limits, far outside any panel, so that nothing downstream over- or underflows in float64

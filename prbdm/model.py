@@ -51,7 +51,7 @@ from .constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402  (Eq. 13 bounds on eac
 LAWS = ("beam", "paper")
 #: a short float type warns when its estimated relative error of the highest eigenvalue,
 #: PRECISION_FACTOR * eps * lam_max / lam_min, exceeds PRECISION_RTOL. The factor is measured:
-#: float32 errors of the highest mode reach 2.4-5.8 eps lam_n / lam_1 (docs/stability.md)
+#: float32 errors of the highest mode reach 2.4-5.8 eps lam_n / lam_1 (docs/validation.md)
 PRECISION_RTOL = 1e-3
 PRECISION_FACTOR = 4.0
 

@@ -2,7 +2,7 @@
 
 A fit result (``prbdm fit --json``) or a prediction (``prbdm predict --json``) is only right for
 the beam and the poses it was made for. Before it is written into a simulator's file or
-integrated in time, three things are checked here (docs/export.md, "Checks before use"):
+integrated in time, three things are checked here (docs/howto/export-and-simulate.md, "Checks before use"):
 
 1. **Its beam** (:func:`check_fingerprint`): the result's ``beam_fingerprint``
    (:mod:`prbdm.fingerprint`) must equal the beam's; otherwise :class:`~prbdm.errors.BadInput`
@@ -12,7 +12,7 @@ integrated in time, three things are checked here (docs/export.md, "Checks befor
    that matters is the small-vibration one about theta = 0 (``pose="rest"``, the default). A
    result fitted for the paper's deflected poses has no theta = 0 pose, and its SCFs, fitted for
    deflected poses, give wrong small-vibration frequencies at rest (on a necked panel the first
-   mode 11-25 % off: docs/export.md). It is refitted at theta = 0 (gamma and one SCF, the
+   mode 11-25 % off: docs/howto/export-and-simulate.md). It is refitted at theta = 0 (gamma and one SCF, the
    linear pose set) against its own truth frequencies (``omega_truth``, or a prediction's
    ``omega_truth_predicted``): no FEM, about a second; the caller reports it under ``refit``.
 3. **Its frequencies** (:func:`check_frequencies`): the small-vibration frequencies of the model
@@ -137,7 +137,7 @@ def refit_at_rest(beam, fit: dict, truth: np.ndarray, truth_source: str, modes: 
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         seed = 0
     t0 = time.perf_counter()
-    # one small batched problem: one thread is fastest (docs/choices.md, "Threads"); restored after
+    # one small batched problem: one thread is fastest (docs/conventions.md §6, "Threads"); restored after
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:

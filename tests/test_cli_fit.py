@@ -118,7 +118,7 @@ def test_truth_auto_is_the_default_and_says_why(beam_file, capsys, half_width, m
 def test_fit_to_the_shear_deformable_plate(beam_file, capsys):
     """`--truth mindlin` fits to the Reissner-Mindlin plate: on a panel 0.04 L thick its
     frequencies lie below the Kirchhoff plate's by the transverse shear and rotary inertia the
-    Kirchhoff plate leaves out, more on higher modes (docs/truth.md: about 0.3 / 1 / 2 % on modes
+    Kirchhoff plate leaves out, more on higher modes (docs/howto/choose-a-truth.md: about 0.3 / 1 / 2 % on modes
     1-3 at this thickness, within 0.3 % of 3-D elasticity)."""
     path = beam_file({"x": [0.0, 1.0], "half_width": [0.25, 0.25], "thickness": 0.04})
     omega = {}

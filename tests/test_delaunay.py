@@ -138,7 +138,7 @@ def test_positive_areas_sum_to_the_planform_area(meshed):
 
 def test_angles(meshed):
     """In the mesher's own (y-stretched) coordinates. Measured over 120 random planforms (40
-    each of seeds 0 and 1 with min_half_width 0.01, and of seed 2 without; docs/truth.md): at
+    each of seeds 0 and 1 with min_half_width 0.01, and of seed 2 without; docs/validation.md): at
     most 3.9 % of the triangles below 5 degrees and 4.2 % above 150 (mean 0.15 % and 0.10 %);
     the worst single angles, 0.02 and 179.9 degrees, on "random (1, 13)" (its sliver beside the
     tip edge, test_conforming). Straight or gently kinked free edges give no triangle below 20

@@ -34,7 +34,7 @@ def test_example_runs_in_a_fresh_interpreter(script, tmp_path):
 
 def check_design_study(tmp_path):
     """The design study at full size (about 5 s), checked through the numbers ``main`` returns
-    against what docs/design-study.md, docs/surrogate.md and docs/fit.md state."""
+    against what docs/howto/design-study.md, docs/validation.md and docs/howto/fit.md state."""
     res = load(EXAMPLES / "design_study_taper.py").main(["--out", str(tmp_path)])
     assert res["ood"] == 0 and res["warnings"] == 0
     # where the network's choice among its candidate segmentations flips, gamma jumps; the
@@ -43,16 +43,16 @@ def check_design_study(tmp_path):
     # shape invariance: twice the thickness, same gamma and k, twice the frequencies
     assert res["thick_gamma_change"] < 1e-6 and res["thick_k_change"] < 1e-6
     assert all(abs(v - 2) < 1e-8 for v in res["thick_ratio"])
-    # docs/surrogate.md: direct frequency prediction, median 0.07-0.35 % per mode on held-out
+    # docs/validation.md: direct frequency prediction, median 0.07-0.35 % per mode on held-out
     # random beams, p95 0.4-1.6 %; a smooth taper family is easier than random beams
     direct = res["err_direct"]
     assert direct.shape[1] == 4
     assert np.median(direct, axis=0).max() < 0.5 and direct.max() < 1.5
     # the PRBDMs follow the paper's loss, which the highest mapped mode dominates: mode 4 and the
-    # loss are tight, mode 1 is not (20-25 % here, docs/fit.md §3), so only mode 4 is bounded
+    # loss are tight, mode 1 is not (20-25 % here, docs/howto/fit.md), so only mode 4 is bounded
     assert np.median(res["err_network"][:, 3]) < 1.0
     assert np.median(res["loss_network"]) < 2.0 and res["loss_network"].max() < 3.2
-    assert res["loss_fit"].max() < 0.5           # docs/fit.md §3: max 0.36 % over random beams
+    assert res["loss_fit"].max() < 0.5           # docs/howto/fit.md: max 0.36 % over random beams
     cpu = res["cpu_s"]
     assert 0 < cpu["network"] < cpu["fem"] < cpu["fem_fit"]
     # the chosen design: the network's first frequency against the FEM, and the target

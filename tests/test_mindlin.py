@@ -1,4 +1,4 @@
-"""The Reissner-Mindlin plate truth (prbdm.truth.mindlin, model "mindlin"; docs/truth.md)."""
+"""The Reissner-Mindlin plate truth (prbdm.truth.mindlin, model "mindlin"; docs/validation.md)."""
 import json
 import subprocess
 import sys

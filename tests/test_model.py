@@ -233,7 +233,7 @@ def test_single_joint_spring_pendulum(law, w0, w1):
 # ----------------------------------------------------------------------------- convergence
 def test_beam_law_converges_to_euler_bernoulli_at_second_order():
     """k = 1, gamma = uniform_gamma(n): relative errors of the first three frequencies fall by 4
-    per doubling of n. The same table is in docs/model.md."""
+    per doubling of n. The same table is in docs/validation.md."""
     E, rho, b, t = 205e9, 7850.0, 0.3624, 0.040532
     beam = Beam(x=[0.0, 1.0], half_width=[b / 2, b / 2], thickness=t)
     I, A = b * t ** 3 / 12, b * t

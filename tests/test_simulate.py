@@ -114,7 +114,7 @@ def test_small_deflection_period_agrees_within_the_fit_error(linear_fit):
     assert res.tip_truth[0] == pytest.approx(D, rel=1e-4)       # 20 modes of the static shape
     fit_err = info["fit_freq_error_mode1"]
     assert fit_err is not None and fit_err < 1e-6
-    # the same estimator on both signals; its own error is ~1e-7 (docs/export.md)
+    # the same estimator on both signals; its own error is ~1e-7 (docs/howto/export-and-simulate.md)
     assert info["fit_truth_difference_mode1"] < 1e-7
     assert info["period_error"] <= fit_err + 1e-6
     assert info["omega_prbdm_linear"][0] == pytest.approx(info["omega_truth"][0],

@@ -698,7 +698,7 @@ def test_physical_problems_flag_broken_predictions(tmp_path, tiny_set):
     assert p.implausible.all()
 
 
-#: test-split median loss [%] of each shipped checkpoint as docs/surrogate.md §5 states it
+#: test-split median loss [%] of each shipped checkpoint as docs/reference/checkpoints.md states it
 DOCUMENTED_MEDIAN_LOSS = {3: 0.208, 4: 0.226, 5: 0.331}
 
 
@@ -729,7 +729,7 @@ def test_shipped_checkpoint_is_as_accurate_as_documented_on_held_out_beams(joint
 def test_frequency_checkpoint_keeps_every_mode_closer_than_the_eigenvalue_one():
     """beam-n4-frequency (issue 18) on 16 beams of seed 1 against the beam truth: the median of
     the worst per-mode frequency error over the poses within 2x the 5.5 % measured on 1,000
-    held-out beams (docs/surrogate.md, training/evaluate_objective.py), and below the paper-loss
+    held-out beams (docs/reference/checkpoints.md, training/evaluate_objective.py), and below the paper-loss
     network's on the same beams (22.7 % there)."""
     from prbdm.geometry import random_beam
     from prbdm.truth import bending_frequencies

@@ -243,7 +243,7 @@ def test_shipped_recipes_are_the_checkpoints_own(name, tmp_path):
 
 def test_no_machine_paths_in_committed_metadata():
     for path in [*(REPO / "checkpoints").glob("*.json"),
-                 *(REPO / "docs" / "history").glob("*.json"), *(TRAINING / "configs").glob("*.toml")]:
+                 *(REPO / "notes" / "history").glob("*.json"), *(TRAINING / "configs").glob("*.toml")]:
         text = path.read_text()
         for prefix in ('"/work/', '"/tmp/', '"/home/', '"/root/'):
             assert prefix not in text, (path.name, prefix)

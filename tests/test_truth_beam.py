@@ -27,7 +27,7 @@ def test_uniform_beam_matches_the_analytic_solution():
     fem = bending_frequencies(b, "beam", modes=8)
     exact = bending_frequencies(b, "analytic", modes=8)
     err = np.abs(fem.omega / exact.omega - 1)
-    assert err[:5].max() < 2e-5            # measured 1.1e-5 (mode 5), docs/truth.md
+    assert err[:5].max() < 2e-5            # measured 1.1e-5 (mode 5), docs/validation.md
     assert err.max() < SPEC_BEAM           # the default mesh grows with the number of modes
 
 

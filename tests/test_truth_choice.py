@@ -86,7 +86,7 @@ def test_shear_caveat_spares_thin_smooth_panels_and_uniform_strips_and_flags_nec
     thin_square = Beam(x=[0, 1], half_width=[0.5, 0.5], thickness=0.005)
     strip = Beam(x=[0, 1], half_width=[0.02, 0.02], thickness=0.01)     # 4 t wide, no neck
     assert shear_caveat(thin_square, "plate") is None and shear_caveat(strip, "plate") is None
-    # a thin panel with a wide neck: measured 0.4-1.3 % (docs/truth.md), spared
+    # a thin panel with a wide neck: measured 0.4-1.3 % (docs/howto/choose-a-truth.md), spared
     wide_neck = Beam(x=[0, 0.4, 0.5, 0.6, 1], half_width=[0.4, 0.4, 0.1, 0.4, 0.4],
                      thickness=0.005)
     assert shear_caveat(wide_neck, "plate") is None
@@ -97,7 +97,7 @@ def test_shear_caveat_spares_thin_smooth_panels_and_uniform_strips_and_flags_nec
                   thickness=0.006)                                       # a neck 6.7 t wide
     for b in (thick, necked):
         text = shear_caveat(b, "plate")
-        assert text and "mindlin" in text and "docs/truth.md" in text
+        assert text and "mindlin" in text and "docs/howto/choose-a-truth.md" in text
     assert shear_caveat(thick, "mindlin") is None
     # the beam: from t/L where its mode 4 is ~1 % high on a smooth panel
     assert shear_caveat(Beam(x=[0, 1], half_width=[0.02, 0.02], thickness=0.01), "beam") is None
@@ -121,7 +121,7 @@ def test_a_mindlin_panel_without_a_plate_network_names_the_shear_deformable_plat
     there: the faithful truth named, and the remedy with --truth mindlin."""
     from types import SimpleNamespace
 
-    from prbdm.commands.predict import truth_reason
+    from prbdm.surrogate.selection import truth_reason
     wide = random_beam(1, 0, min_half_width=0.01)
     choice = choose_truth(wide)
     assert choice[0] == "mindlin"

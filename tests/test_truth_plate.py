@@ -52,7 +52,7 @@ def test_square_plate_matches_barton_leissa(square_all):
     assert sym == SQUARE_SYMMETRY
     rel = lam / BARTON_SQUARE - 1
     # the published Ritz values are upper bounds: ours lie just below them (measured
-    # -0.60 %, -0.22 %, -0.68 %, -0.48 %, -0.50 %, -0.47 %, docs/truth.md)
+    # -0.60 %, -0.22 %, -0.68 %, -0.48 %, -0.50 %, -0.47 %, docs/validation.md)
     assert np.all(rel < 0) and np.all(rel > -0.008)
 
 
@@ -93,13 +93,13 @@ def test_paper_participation_rule_would_keep_the_chordwise_mode():
 
 
 # ---------------------------------------------------------------- other aspect ratios: Ritz
-# No second published table could be retrieved (docs/truth.md), so the other aspect ratios are
+# No second published table could be retrieved (docs/validation.md), so the other aspect ratios are
 # checked against an independent, mesh-free Rayleigh-Ritz solution (prbdm.truth.ritz_plate:
 # x^2 P_i(2x - 1) P_j(2y / b) Legendre basis, Gauss quadrature, scipy.linalg.eigh), converged.
 @pytest.mark.parametrize("aspect", [2.0, 0.5])
 def test_rectangular_plates_match_a_converged_ritz_solution(aspect):
     """L / b = 2 (long) and 0.5 (wide), nu = 0.3, first eight modes of both families.
-    Measured (`python benchmarks/bench_truth.py --validation`, docs/truth.md): the Ritz values
+    Measured (`python benchmarks/bench_truth.py --validation`, docs/validation.md): the Ritz values
     change by at most 5.7e-5 from basis 14x14 to 18x18; FEM / Ritz(18) - 1 within -1.8e-5 (L/b = 2)
     and -2.3e-5 (L/b = 0.5), the FEM lying just below (both are upper bounds, the FEM the more
     converged one; with a 22x22 basis the differences fall to 1.1e-5 and 3.2e-6), against the
@@ -281,7 +281,7 @@ ACCURACY_CASES = {
 def test_extreme_planforms_keep_the_default_accuracy(name):
     """Unchanged relative accuracy on the extreme cases: the default mesh against the reference
     mesh of the convergence study (elements=24, corner_ratio=0.003, grade=0.3). Measured
-    (docs/truth.md): 2mm tip 2.2e-7, hw=2mm 8.3e-5, hw=0.5m 7.1e-6, waist 4.1e-5, step 1.1e-5;
+    (docs/validation.md): 2mm tip 2.2e-7, hw=2mm 8.3e-5, hw=0.5m 7.1e-6, waist 4.1e-5, step 1.1e-5;
     each case takes under 3 s."""
     b = ACCURACY_CASES[name]
     default = bending_frequencies(b, "plate", modes=5)

@@ -16,21 +16,32 @@ def add_beam_argument(parser):
     parser.add_argument("--all-stations", action="store_true",
                         help=f"use every station of BEAM (default: a planform of more than "
                              f"{SIMPLIFY_ABOVE} stations is simplified to within "
-                             f"{SIMPLIFY_RTOL:g} of its local half-width, docs/commands.md)")
+                             f"{SIMPLIFY_RTOL:g} of its local half-width, docs/conventions.md §4)")
 
 
-def read_beam(args, command: str, model: str | None = None):
+def load_beam_file(args):
+    """The beam of ``args.beam`` (a file, or ``-``: standard input) as given: read once, not yet
+    checked against any truth's limits (e.g. to choose a network by the panel's width first);
+    :func:`read_beam` with ``beam=`` then checks and prepares it."""
+    from ..geometry import load_beam
+
+    return load_beam(args.beam)
+
+
+def read_beam(args, command: str, model: str | None = None, beam=None):
     """The beam of ``args.beam``, checked and ready: (beam, info), the one way every command reads
     a beam (so all refuse the same beams with the same message).
 
+    ``beam``: the beam already read by :func:`load_beam_file` (the file is not read again).
     Checks :func:`prbdm.geometry.check_beam` (``model``: the truth model's own limits too, when
     the command knows it), simplifies a planform of many stations (unless ``--all-stations``),
     and writes the unit-mistake warnings to stderr. ``info`` is the JSON ``input`` block:
     ``stations`` (as given), ``simplified`` (None, or stations before/after and the deviation)
     and ``warnings``."""
-    from ..geometry import check_beam, load_beam, simplify_planform, unit_warnings
+    from ..geometry import check_beam, simplify_planform, unit_warnings
 
-    beam = load_beam(args.beam)
+    if beam is None:
+        beam = load_beam_file(args)
     check_beam(beam, model)
     info = {"stations": int(beam.x.size), "simplified": None, "warnings": unit_warnings(beam)}
     if not getattr(args, "all_stations", False):
@@ -46,24 +57,16 @@ def read_beam(args, command: str, model: str | None = None):
     return beam, info
 
 
-def peek_beam(args):
-    """The beam of ``args.beam`` as given, unchecked and silent, or None if it cannot be read (a
-    look ahead, e.g. to choose a network by the panel's width; :func:`read_beam` then reads it
-    properly and reports any problem)."""
-    from ..geometry import load_beam
+def check_plot_path(path):
+    """BadInput unless ``path`` is a .png, .pdf or .svg file in an existing folder (``--plot``
+    of fit and simulate)."""
+    from pathlib import Path
 
-    if str(args.beam) == "-":
-        # standard input can be read once: keep its text for read_beam, which reads it again
-        import io
-
-        sys.stdin = io.StringIO(sys.stdin.read())
-    try:
-        return load_beam(args.beam)
-    except BadInput:
-        return None
-    finally:
-        if str(args.beam) == "-":
-            sys.stdin.seek(0)
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".png", ".pdf", ".svg"):
+        raise BadInput(f"--plot: file must end in .png, .pdf or .svg, got {path!r}")
+    if not Path(path).resolve().parent.is_dir():
+        raise BadInput(f"--plot: folder of {path!r} does not exist")
 
 
 #: optional module -> the extra of pyproject.toml that installs it

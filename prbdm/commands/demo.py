@@ -39,7 +39,7 @@ def run(args) -> int:
 
     import torch
 
-    # one process, small batched problems: one thread is fastest (docs/choices.md, "Threads")
+    # one process, small batched problems: one thread is fastest (docs/conventions.md §6, "Threads")
     torch.set_num_threads(1)
 
     from ..fit import fit_prbdm

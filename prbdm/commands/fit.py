@@ -15,8 +15,8 @@ import math
 import sys
 
 from ..errors import BadInput
-from ._common import (add_beam_argument, positive_int, print_json, progress_bar, read_beam,
-                      require, table)
+from ._common import (add_beam_argument, check_plot_path, positive_int, print_json, progress_bar,
+                      read_beam, require, table)
 
 TRUTHS = ("analytic", "beam", "plate", "mindlin")
 
@@ -33,11 +33,11 @@ def add_arguments(parser):
                              "panels thicker than about 0.02 L; about 8x the plate's time), or "
                              "'auto' (default): the beam up to a full "
                              "width of 0.05 L, the plate beyond, where the beam would be more than "
-                             "1 %% off (docs/truth.md)")
+                             "1 %% off (docs/howto/choose-a-truth.md)")
     parser.add_argument("--objective", choices=("eigenvalue", "frequency"), default="eigenvalue",
                         help="what the fit minimises: 'eigenvalue', the paper's loss (default), "
                              "or 'frequency', the worst relative frequency error per pose "
-                             "(every mode right; docs/fit.md). Both are reported")
+                             "(every mode right; docs/howto/fit.md). Both are reported")
     parser.add_argument("--law", choices=("beam", "paper"), default="beam",
                         help="base joint stiffness law (default 'beam')")
     parser.add_argument("--poses", default="paper", metavar="paper|linear|T1,T2,...",
@@ -59,7 +59,7 @@ def run(args) -> int:
     modes = args.modes or n
     poses, warnings = parse_poses(args.poses, n)
     if args.plot:
-        _check_plot_path(args.plot)
+        check_plot_path(args.plot)
         require("matplotlib", purpose="--plot")
 
     from ..truth import bending_frequencies, modes_for_fit
@@ -75,7 +75,7 @@ def run(args) -> int:
 
     import torch
 
-    # one process, small batched problems: one thread is fastest (docs/choices.md, "Threads")
+    # one process, small batched problems: one thread is fastest (docs/conventions.md §6, "Threads")
     torch.set_num_threads(1)
 
     from ..fingerprint import beam_fingerprint
@@ -136,16 +136,6 @@ def fit_remedy(args, n: int, modes: int) -> str:
         tries.append(f"more joints than modes (`--joints {n + 1} --modes {modes}`)")
     tries.append("more start points (`--starts`)")
     return "try " + ", or ".join(tries)
-
-
-def _check_plot_path(path):
-    from pathlib import Path
-
-    suffix = Path(path).suffix.lower()
-    if suffix not in (".png", ".pdf", ".svg"):
-        raise BadInput(f"--plot: file must end in .png, .pdf or .svg, got {path!r}")
-    if not Path(path).resolve().parent.is_dir():
-        raise BadInput(f"--plot: folder of {path!r} does not exist")
 
 
 def _print_report(beam, r, truth, links):

@@ -64,7 +64,7 @@ def add_arguments(parser):
                              "(beam-n4 or beam-n4-frequency; default: the paper's eigenvalue loss)")
     parser.add_argument("--no-stability", action="store_true",
                         help="do not append the stability suite (prbdm.report.stability, "
-                             "docs/stability.md)")
+                             "docs/validation.md)")
 
 
 def _command(args) -> str:

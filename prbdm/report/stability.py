@@ -1,5 +1,5 @@
 """The stability suite's Markdown (issue 7): what ``prbdm report`` appends and
-``benchmarks/stability.py`` prints (docs/stability.md carries its output).
+``benchmarks/stability.py`` prints (docs/validation.md carries its output).
 
 The cases and their checks are :mod:`prbdm.report.stability_cases` (harness and independent
 references: :mod:`prbdm.report.stability_checks`); this module runs them and writes the tables:

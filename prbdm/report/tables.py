@@ -71,7 +71,7 @@ def _mindlin_section(res: dict) -> list:
         f"Every model against the shear-deformable plate's frequencies ({n.get('beams', 0)} "
         f"beams; {len(res.get('mindlin_failures', []))} where it could not be solved are left "
         "out): the truth `--truth auto` takes for a panel thick or necked enough that the "
-        "Kirchhoff plate would be more than 1 % high (docs/truth.md). `fit to Mindlin truth` "
+        "Kirchhoff plate would be more than 1 % high (docs/howto/choose-a-truth.md). `fit to Mindlin truth` "
         "was fitted to it, and the Mindlin network's rows "
         + ("(trained on it) are there too." if has_net
            else "are absent: no Mindlin network was found."),

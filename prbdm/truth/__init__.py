@@ -82,7 +82,7 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     all_modes : plate only: also solve the antisymmetric (torsional) family, so that
         ``all_modes`` lists every mode up to the highest kept one, kept or not (mindlin solves
         the symmetric family only: ``all_modes`` lists every computed symmetric mode either way)
-    elements : mesh resolution along the span (``None``: automatic, see docs/truth.md); beam:
+    elements : mesh resolution along the span (``None``: automatic, see docs/validation.md); beam:
         base number of elements before the width grading; plate, mindlin: ``1/h0`` for the mesh
         size h0
     options : beam: ``grading`` (bool, default True); plate: ``selection`` ("section" or

@@ -68,7 +68,7 @@ def default_elements(modes: int) -> int:
 
     With cubic Hermite elements the frequency error of mode n falls like (n h)^4; 8 elements per
     requested mode and at least 40 keep the first modes within ~1e-5 relative of the converged
-    values (measured in docs/truth.md), ten times inside the 0.01 % requirement.
+    values (measured in docs/validation.md), ten times inside the 0.01 % requirement.
     """
     return max(40, 8 * int(modes))
 

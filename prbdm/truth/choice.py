@@ -3,7 +3,7 @@ and the shear-deformable (Reissner-Mindlin) plate for a plate panel thick or nec
 the Kirchhoff plate would be more than 1 % off (:func:`shear_caveat`, measured below).
 
 The rule is read off measured beam-vs-plate differences (``benchmarks/truth_choice.py``, table in
-docs/truth.md, data in docs/truth-choice.json): 220 random planforms of the paper's generator
+docs/howto/choose-a-truth.md, data in docs/truth-choice.json): 220 random planforms of the paper's generator
 with the half-width scaled to 0.005-0.5 L, both truths solved, ``|omega_beam / omega_plate - 1|``
 on modes 1-4 against the full width ratio ``b / L = 2 max(w) / L``. The difference grows about in
 proportion to b / L, with a shape factor that varies by 20x between planforms (abrupt width
@@ -38,7 +38,7 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
     if b <= AUTO_BEAM_MAX_WIDTH:
         return "beam", (f"auto: full width {b:.3g} L <= {AUTO_BEAM_MAX_WIDTH:g} L, a slender strip: "
                         f"the beam is within {AUTO_TOLERANCE:.0%} of the plate on modes 1-4 for "
-                        "95 % of measured panels this narrow (docs/truth.md)")
+                        "95 % of measured panels this narrow (docs/howto/choose-a-truth.md)")
     from ..errors import BadInput
     from ..geometry import MAX_PLATE_THICKNESS_RATIO, check_beam
 
@@ -53,7 +53,7 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
             return "plate", f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L"
         return "beam", (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L, but thicker "
                         f"than {MAX_PLATE_THICKNESS_RATIO:g} x its full width, outside thin-plate "
-                        "theory: solved as a beam (docs/truth.md)")
+                        "theory: solved as a beam (docs/howto/choose-a-truth.md)")
     wide = (f"auto: full width {b:.3g} L > {AUTO_BEAM_MAX_WIDTH:g} L: a beam model would differ "
             f"from the plate by more than {AUTO_TOLERANCE:.0%} on 1 panel in 20 or more this "
             "wide")
@@ -64,13 +64,13 @@ def choose_truth(beam, truth: str = "auto") -> tuple[str, str]:
         return "mindlin", (f"{wide}; t/L = {tl:.2g} with a narrowest full width of {neck:.2g} t: "
                            f"the Kirchhoff plate would be more than {AUTO_TOLERANCE:.0%} above "
                            "the shear-deformable (Mindlin) plate, which 3-D elasticity supports "
-                           "(docs/truth.md)")
-    return "plate", f"{wide} (docs/truth.md)"
+                           "(docs/howto/choose-a-truth.md)")
+    return "plate", f"{wide} (docs/howto/choose-a-truth.md)"
 
 
 # ------------------------------------------------------------------ what the thin models leave out
 #: The Euler-Bernoulli beam and the Kirchhoff plate leave out transverse shear and rotary inertia.
-#: Measured (docs/truth.md, "What the Kirchhoff plate leaves out"): on the paper's random panels
+#: Measured (docs/howto/choose-a-truth.md, "What the Kirchhoff plate leaves out"): on the paper's random panels
 #: the Kirchhoff plate is above the Reissner-Mindlin plate by more than 1 % on some mode 1-4 for
 #: 97 % of the panels 0.01 L thick or more (1.3-6 % median per mode, most where a neck is a few
 #: thicknesses wide; 3-D elasticity is on Mindlin's side on the six random panels solved), and
@@ -108,7 +108,7 @@ def shear_caveat(beam, model: str) -> str | None:
         if not (tl >= SHEAR_PLATE_THICKNESS
                 or has_neck and (tl >= SHEAR_NECKED_THICKNESS or neck < SHEAR_PLATE_NECK)):
             return None
-        remedy = ("(docs/truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model "
+        remedy = ("(docs/howto/choose-a-truth.md); `prbdm fit --truth mindlin` and `prbdm truth --model "
                   "mindlin` include the shear")
         if not has_neck:
             est = _smooth_estimate(tl)
@@ -125,7 +125,7 @@ def shear_caveat(beam, model: str) -> str | None:
             return None
         return (f"Euler-Bernoulli leaves out shear and rotary inertia: at t/L = {tl:.2g} its "
                 f"modes 1-4 are about {', '.join(f'{e:.2g}' for e in est)} % high (3-D "
-                "elasticity on smooth panels, scaled by (t/L)^2; docs/truth.md)")
+                "elasticity on smooth panels, scaled by (t/L)^2; docs/howto/choose-a-truth.md)")
     return None
 
 

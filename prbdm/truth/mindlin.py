@@ -25,7 +25,7 @@ Element: equal-order Lagrange triangles of degree ``degree`` (default 4, scikit-
 ``ElementTriP4``) for all three fields. Low-order equal interpolation locks (the constraint
 ``grad W = beta`` with continuous ``beta`` is satisfied only by C1 deflections, which low-degree
 continuous piecewise polynomials contain few of), and its error falls quickly with the degree.
-Measured at t/L = 0.001 on the default mesh (docs/truth.md, "``mindlin``: a shear-deformable
+Measured at t/L = 0.001 on the default mesh (docs/validation.md, "``mindlin``: a shear-deformable
 plate truth"; Kirchhoff is exact to ~1e-5 there), ``mindlin / plate - 1`` on modes 1-4: P2 +0.7
 to +5 % (locked), P3 +0.02 to +0.11 %, P4 within 2e-5; the paper's panels (t/L 0.01-0.05) are
 thicker, hence further from locking. Mesh convergence of P4, default (``elements`` 12) against

@@ -96,7 +96,7 @@ def plate_omega_scale(beam) -> float:
 def default_elements(modes: int) -> int:
     """Span-wise resolution for ``modes`` bending modes: the n-th bending mode has about n - 1/2
     half-waves along the span; the default resolves five with the accuracy measured in
-    docs/truth.md, and grows with the number of modes asked for."""
+    docs/validation.md, and grows with the number of modes asked for."""
     return DEFAULT_ELEMENTS + 2 * max(0, int(modes) - 5)
 
 

@@ -2,7 +2,7 @@
 
 Not a truth model of its own (``prbdm truth`` does not offer it): an independent reference that
 keeps what the Kirchhoff plate neglects (transverse shear, rotary inertia, through-thickness
-stress), used by ``benchmarks/plate_vs_solid.py`` and docs/truth.md.
+stress), used by ``benchmarks/plate_vs_solid.py`` and docs/validation.md.
 
 Model: isotropic linear elasticity, ``div sigma = -rho omega^2 u``, on the half panel
 ``0 <= x <= L``, ``0 <= y <= w(x)``, ``|z| <= t / 2``; clamped root (``u = 0`` on ``x = 0``),
