@@ -19,7 +19,7 @@ zero of both, by symmetry):
 
 Rules (``selection``):
 
-``"section"`` (default)
+``"section"`` (the section rule; the default is the spectrum, below)
     walk the symmetric modes upward; a mode is a bending mode when ``section_fraction >= 1/2``:
     more than half of its modal mass moves with its chord sections. The whole-body participation
     alone cannot tell chordwise modes from higher bending modes, because bending participation
@@ -33,6 +33,13 @@ Rules (``selection``):
     the paper's rule: among the first ``max(2 R + 4, 12)`` symmetric modes, the ``R`` with the
     highest participation, listed in ascending frequency (the paper took them from its first 40
     modes of both families, i.e. about 20 symmetric ones).
+
+``"spectrum"`` (default)
+    the bending spectrum (:func:`bending_spectrum`): every symmetric mode counts as bending with
+    the weight :func:`bending_weight` of its section fraction, and the j-th bending eigenvalue is
+    the weighted geometric mean of the modes over the j-th unit of that weight. Where the modes
+    are clean it is exactly the section rule's mode; where bending and chordwise modes mix it is
+    continuous in the planform, where the section rule's pick jumps (docs/method.md).
 """
 from __future__ import annotations
 
