@@ -14,6 +14,7 @@ so. Bad input or a mismatch: one line, exit status 2, nothing written.
 """
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -29,11 +30,13 @@ SETTINGS = {
 }
 cfg = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, required=("checkpoint",))
 #: the recomputed figures must equal the recorded ones to this. The network runs in float32
-#: (epsilon 1.2e-7) and another CPU's kernels sum its layers in another order; a PRBDM loss is a
-#: difference of eigenvalues, which amplifies that (measured: 9e-7 relative between two x86 CPUs
-#: with the same packages). 1e-5 is ~100 epsilon, and a different split or set moves these
-#: figures by 1e-3 or more, so a different measurement is still told apart.
-RTOL = 1e-5
+#: (epsilon 1.2e-7) and another CPU's BLAS kernels sum its layers in another order; a PRBDM loss
+#: is a difference of eigenvalues, which amplifies that. Measured with every OpenBLAS kernel
+#: family on this machine (OPENBLAS_CORETYPE=Prescott, Nehalem, Sandybridge, Haswell, Zen,
+#: SkylakeX) on plate-n4 and mindlin-n4: at most 2e-5 relative (tests/test_training.py runs one
+#: under Prescott's); 1e-4 leaves a factor 5, and a different split or set moves these medians
+#: and percentiles of thousands of panels by far more.
+RTOL = 1e-4
 ATOL = 1e-9      # figures are percents and seconds; an exact zero stays a zero
 
 
@@ -86,32 +89,45 @@ loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
 test = _heldout.test_metrics(sur, batch, omega_truth, sur.modes, loss_fit)
 
 
-def _same(old, new) -> bool:
-    """Equal counts and bands, floats to rtol: the same measurement (timings excepted)."""
+def _worst(old, new) -> float:
+    """The largest relative difference of the floats of ``new`` from ``old`` (inf where counts,
+    bands or keys differ): 0 for the same measurement bit for bit."""
     if isinstance(old, dict):
-        return old.keys() <= new.keys() and all(_same(old[k], new[k]) for k in old)
+        if not old.keys() <= new.keys():
+            return math.inf
+        return max((_worst(old[k], new[k]) for k in old), default=0.0)
     if isinstance(old, list) and old and isinstance(old[0], dict):
-        return len(old) == len(new) and all(_same(o, n) for o, n in zip(old, new))
+        if len(old) != len(new):
+            return math.inf
+        return max(_worst(o, n) for o, n in zip(old, new))
     if isinstance(old, float) or (isinstance(old, list) and old
                                   and all(isinstance(v, float) for v in old)):
-        return bool(np.allclose(new, old, rtol=RTOL, atol=ATOL))
-    return old == new
+        a, b = np.asarray(old, float), np.asarray(new, float)
+        if a.shape != b.shape:
+            return math.inf
+        excess = np.abs(b - a) - ATOL
+        return float(np.max(np.where(excess > 0, excess / np.maximum(np.abs(a), 1e-300), 0.0)))
+    return 0.0 if old == new else math.inf
 
 
 # the same measurement or none: every recorded figure but the timing (the bands where recorded)
+largest = 0.0
 for key, old in recorded.items():
     if key in ("predict_time_s_per_beam", "evaluated_with", "by_width_added_by"):
         continue
     if key not in test:
         _fail(f"--checkpoint: {path.name} records test.{key}, which this measurement does not "
               "make (nothing written)")
-    if not _same(old, test[key]):
-        _fail(f"--checkpoint: recomputed test.{key} differs from the recorded one "
-              f"({str(test[key])[:80]} vs {str(old)[:80]}); not the measurement training made "
-              "(nothing written)")
+    worst = _worst(old, test[key])
+    if not worst <= RTOL:
+        _fail(f"--checkpoint: recomputed test.{key} differs from the recorded one by "
+              f"{worst:.2g} relative (allowed {RTOL:g}; {str(test[key])[:80]} vs "
+              f"{str(old)[:80]}); not the measurement training made (nothing written)")
+    largest = max(largest, worst)
 for line in _heldout.describe(test):
     print(line)
-print(f"recorded test reproduced ({len(te)} beams, rtol {RTOL:g})")
+print(f"recorded test reproduced ({len(te)} beams, rtol {RTOL:g}; largest relative difference "
+      f"{largest:.2g})")
 if cfg["write"]:
     # the recorded timing stays (it was measured with the training machine's load)
     meta["test"] = {**test, "predict_time_s_per_beam": recorded["predict_time_s_per_beam"]}
