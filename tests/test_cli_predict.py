@@ -693,10 +693,15 @@ def test_fewer_members_than_tested_say_so():
 
 
 def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_set):
-    """64 bytes overwritten in the weights: exit 2 naming the file, with and without --json."""
+    """64 bytes overwritten in the weights (the last weight's end; not the training panels'
+    reference, which has its own hash): exit 2 naming the file, with and without --json."""
     bad = tmp_path / "damaged.safetensors"
     data = bytearray(SHIPPED.read_bytes() if SHIPPED.is_file() else tiny_checkpoint(tiny_set).read_bytes())
-    data[-200:-136] = bytes(range(64))
+    size = int.from_bytes(data[:8], "little")
+    header = json.loads(bytes(data[8:8 + size]))
+    end = 8 + size + max(v["data_offsets"][1] for k, v in header.items()
+                         if k not in ("__metadata__", "neighbours.features"))
+    data[end - 200:end - 136] = bytes(range(64))
     bad.write_bytes(bytes(data))
     for extra in ((), ("--json",)):
         assert_bad(*run(capsys, "predict", beam_file(), "--joints", 4 if SHIPPED.is_file() else 2,

@@ -22,9 +22,11 @@ import numpy as np
 from ..errors import BadInput
 from .decode import K_MODES
 from .features import FeatureSpec, feature_names
+from .neighbours import NEIGHBOURS_TENSOR, check_reference, reference_sha256
 
 CHECKPOINT_FORMAT = "prbdm-surrogate"
-CHECKPOINT_VERSION = 2      # 2: several members (an ensemble) and the choice poses
+CHECKPOINT_VERSION = 3      # 2: several members (an ensemble) and the choice poses; 3: the
+#                             training panels' reference (neighbours), which an older prbdm refuses
 #: folders searched for default checkpoints: $PRBDM_CHECKPOINTS (os.pathsep-separated), then the
 #: shipped ones: prbdm/checkpoints/ in an installed wheel (pyproject.toml maps the repository's
 #: top-level checkpoints/ there), the repository's checkpoints/ in a source checkout or an
@@ -118,9 +120,11 @@ def width_band_index(bands: list, width_ratio) -> np.ndarray:
 def weights_sha256(weights: dict) -> str:
     """sha256 of the weights, by name in sorted order: the name, the little-endian dtype and the
     shape (as JSON), then the raw little-endian bytes. It does not depend on the file's layout,
-    so a re-saved checkpoint with the same weights keeps its hash."""
+    so a re-saved checkpoint with the same weights keeps its hash. The training panels' reference
+    (:data:`.neighbours.NEIGHBOURS_TENSOR`) is not a weight and is left out: it has its own hash
+    (metadata ``neighbours.sha256``), so adding one leaves ``weights_sha256`` as it was."""
     h = hashlib.sha256()
-    for name in sorted(weights):
+    for name in sorted(k for k in weights if k != NEIGHBOURS_TENSOR):
         a = np.asarray(weights[name])
         a = np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("<"))
         h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())
@@ -131,7 +135,9 @@ def weights_sha256(weights: dict) -> str:
 def save_checkpoint(path, weights: dict, metadata: dict) -> Path:
     """Write ``weights`` (name -> NumPy array) and ``metadata`` (JSON-able) as one safetensors
     file (metadata in its header, key ``prbdm``, with ``weights_sha256`` of these weights), and a
-    readable copy ``PATH`` with ``.json``. Each file is written whole or not at all."""
+    readable copy ``PATH`` with ``.json``. Each file is written whole or not at all. ``weights``
+    may hold the training panels' reference (:data:`.neighbours.NEIGHBOURS_TENSOR`) with its
+    record in ``metadata["neighbours"]``: its ``sha256`` is written there."""
     from safetensors.numpy import save
 
     from ..files import atomic_write
@@ -144,6 +150,12 @@ def save_checkpoint(path, weights: dict, metadata: dict) -> Path:
                            "written")
     meta = {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION, **metadata,
             "weights_sha256": weights_sha256(arrays)}
+    if NEIGHBOURS_TENSOR in arrays:
+        if not isinstance(meta.get("neighbours"), dict):
+            raise BadInput(f"checkpoint {str(path)!r}: tensor {NEIGHBOURS_TENSOR} without its "
+                           "metadata 'neighbours'; nothing written")
+        meta["neighbours"] = {**meta["neighbours"],
+                              "sha256": reference_sha256(arrays[NEIGHBOURS_TENSOR])}
     text = json.dumps(meta, allow_nan=False)
     path.parent.mkdir(parents=True, exist_ok=True)
     # both files whole or not at all (the JSON written second: a checkpoint found without its
@@ -192,6 +204,12 @@ def read_checkpoint(path) -> tuple[dict, dict]:
     if recorded is not None and recorded != weights_sha256(tensors):
         raise BadInput(f"{where}: the weights do not match their recorded weights_sha256 (the "
                        "file is corrupt or was edited); restore or retrain it")
+    ref = tensors.get(NEIGHBOURS_TENSOR)
+    nb = metadata.get("neighbours")
+    if ref is not None and (not isinstance(nb, dict) or nb.get("sha256") != reference_sha256(ref)):
+        raise BadInput(f"{where}: the training panels' reference does not match its recorded "
+                       "neighbours.sha256 (the file is corrupt or was edited); restore it or "
+                       "add it again with training/add_neighbours.py")
     try:
         check_checkpoint(tensors, metadata)
     except BadInput as exc:
@@ -287,6 +305,11 @@ def check_checkpoint(tensors: dict, metadata: dict) -> None:
                     raise BadInput(f"weight {name} has non-finite values")
             rows = w.shape[0]
             expected |= {f"{pre}layers.{i}.weight", f"{pre}layers.{i}.bias"}
+    if "neighbours" in metadata or NEIGHBOURS_TENSOR in tensors:
+        if not isinstance(metadata.get("neighbours", {}), dict):
+            raise BadInput("metadata 'neighbours' is not an object")
+        check_reference(tensors, metadata, F)
+        expected.add(NEIGHBOURS_TENSOR)
     extra = sorted(set(tensors) - expected)
     if extra:
         raise BadInput(f"unexpected weights {', '.join(extra[:3])} for {members} member(s)")

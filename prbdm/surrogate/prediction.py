@@ -5,6 +5,10 @@
   naming the feature. A feature that did not vary in training at all (e.g. a plate network
   trained on nu = 0.28 only) cannot be extrapolated: another value is refused
   (:class:`BadInput`) unless ``allow_extrapolation``.
+- A checkpoint that carries its training panels' reference (:mod:`.neighbours`) also checks the
+  combination: an input further from every training panel than the held-out panels go
+  (``neighbours.limit``) gets an :class:`OutOfDistributionWarning` saying no training panel is
+  like it, whatever each feature's range says (``Prediction.unlike``, ``neighbour_distance``).
 - Every prediction is checked against physical ranges (:func:`physical_problems`): finite, gamma
   in (0, 1], k in :data:`K_RANGE`, frequencies ascending and within :data:`FREQ_FACTOR` of the
   equal-link chain's (the ``log_omega_rfe`` or, for a ``spread`` network, ``log_omega_spread``
@@ -24,13 +28,22 @@ from pathlib import Path
 
 import numpy as np
 
-from ..constants import (ACCURACY_WARN_FREQ_PERCENT, ACCURACY_WARN_LOSS_PERCENT,
-                         SELF_CHECK_IMPLAUSIBLE)
+from ..constants import (
+    ACCURACY_WARN_FREQ_PERCENT,
+    ACCURACY_WARN_LOSS_PERCENT,
+    SELF_CHECK_IMPLAUSIBLE,
+)
 from ..errors import BadInput
-from .checkpoint import (check_checkpoint, default_checkpoint, member_prefixes, read_checkpoint,
-                         width_band_index)
+from .checkpoint import (
+    check_checkpoint,
+    default_checkpoint,
+    member_prefixes,
+    read_checkpoint,
+    width_band_index,
+)
 from .decode import SELECT_POSES, combine_members, concatenate_outputs, decode_numpy, silu
 from .features import CHUNK, FeatureSpec, features
+from .neighbours import NEIGHBOURS_TENSOR, nearest_distance
 from .numpy_model import BeamBatch, prbdm_eigenvalues
 
 #: fraction of a feature's training range by which an input may exceed it before a warning
@@ -51,7 +64,8 @@ FREQ_FACTOR = 10.0
 
 
 class OutOfDistributionWarning(UserWarning):
-    """An input lies outside the range of a feature seen in training."""
+    """An input lies outside the range of a feature seen in training, or is unlike every
+    training panel (:mod:`.neighbours`)."""
 
 
 class ImplausiblePredictionWarning(UserWarning):
@@ -90,7 +104,10 @@ class Prediction:
     ``gamma_candidates`` (B, H, n+1), ``selected`` (B,) and ``candidate_loss`` (B, H) (each
     candidate's docs/conventions.md §3 loss [%] against the predicted truth frequencies, on the choice poses)
     for a network with H > 1 candidates; see :meth:`ranked_candidates`; implausible (B,) bool and
-    problems (one text per such beam): predictions that fail :func:`physical_problems`.
+    problems (one text per such beam): predictions that fail :func:`physical_problems`;
+    neighbour_distance (B,): the distance of each input's normalised features to the nearest
+    training panel the checkpoint keeps (None when it keeps none) and unlike (B,) bool: beyond
+    its ``neighbours.limit`` (a text in ``warnings`` where no feature is out of its range).
 
     From features alone (no geometry) only log_omega_hat is complete: k (``projection`` mode)
     and the choice among several candidate gammas need the beam's PRBDM, so they are None (with
@@ -110,6 +127,8 @@ class Prediction:
     extra: dict = field(default_factory=dict)
     implausible: np.ndarray | None = None
     problems: list = field(default_factory=list)
+    neighbour_distance: np.ndarray | None = None
+    unlike: np.ndarray | None = None
 
     def ranked_candidates(self, count: int | None = None) -> np.ndarray:
         """The candidate segmentations (B, count, n+1), best first by their loss against the
@@ -172,6 +191,11 @@ class Surrogate:
         if self.law != "beam":
             raise BadInput(f"{where}: law {self.law!r} is not supported by the NumPy PRBDM "
                            "(only 'beam')")
+        #: the training panels' reference (normalised features, float64) and its record
+        self.neighbours = metadata.get("neighbours")
+        ref = tensors.get(NEIGHBOURS_TENSOR)
+        self.reference = None if ref is None else np.asarray(ref, dtype=np.float64)
+        self.reference_sq = None if ref is None else (self.reference ** 2).sum(1)
         span = self.f_max - self.f_min
         #: features that did not vary in training (see FIXED_FEATURE_TOL)
         self.fixed = span <= FIXED_FEATURE_TOL * np.maximum(1.0, np.abs(self.f_max))
@@ -334,6 +358,31 @@ class Surrogate:
                          f"{self.name}; the prediction is an extrapolation")
         return bad, texts
 
+    def check_neighbours(self, feats: np.ndarray, bad: np.ndarray):
+        """(distance (B,), unlike (B,) bool, texts) of the inputs against the training panels'
+        reference (:mod:`.neighbours`); (None, None, []) for a checkpoint without one. A text
+        (at most 20) for each unlike input none of whose features is out of its range (those
+        already say that they extrapolate)."""
+        if self.reference is None:
+            return None, None, []
+        dist = nearest_distance((feats - self.f_mean) / self.f_std, self.reference,
+                                self.reference_sq)
+        limit = float(self.neighbours["limit"])
+        with np.errstate(invalid="ignore"):
+            unlike = ~(dist <= limit)
+        texts = []
+        only = np.flatnonzero(unlike & ~bad.any(1))
+        for i in only[:20]:
+            prefix = f"beam {i}: " if feats.shape[0] > 1 else ""
+            texts.append(f"{prefix}no training panel of checkpoint {self.name} is like this one "
+                         f"(nearest distance {dist[i]:.3g}, held-out p99 "
+                         f"{float(self.neighbours['held_out']['p99']):.3g}, limit {limit:.3g}, "
+                         "in normalised features): each feature lies in its training range but "
+                         "not their combination; the prediction is an extrapolation")
+        if len(only) > 20:
+            texts.append(f"... {len(only) - 20} more inputs unlike every training panel")
+        return dist, unlike, texts
+
     def refuse_extrapolation(self, feats: np.ndarray, bad: np.ndarray) -> None:
         """BadInput naming the first feature that was fixed in training (one value only) and
         has another value here: the network has never seen that feature vary, so its prediction
@@ -426,9 +475,14 @@ class Surrogate:
                 bad, texts = self.check_range(feats)
                 if not allow_extrapolation:
                     self.refuse_extrapolation(feats, bad)
-            pred = self._assemble(d, feats, batch, bad, texts, frequencies)
+            dist, unlike, far = self.check_neighbours(feats, bad)
+            pred = self._assemble(d, feats, batch, bad, texts + far, frequencies)
+            pred.neighbour_distance, pred.unlike = dist, unlike
         if warn and texts:
             warnings.warn(OutOfDistributionWarning(self.ood_summary(bad, texts)), stacklevel=2)
+        if warn and far:
+            more = f" (and {len(far) - 1} more)" if len(far) > 1 else ""
+            warnings.warn(OutOfDistributionWarning(far[0] + more), stacklevel=2)
         if warn and pred.problems:
             more = f" (and {len(pred.problems) - 1} more)" if len(pred.problems) > 1 else ""
             warnings.warn(ImplausiblePredictionWarning(pred.problems[0] + more), stacklevel=2)
