@@ -504,7 +504,7 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     (folder / "mindlin-n2.safetensors").unlink()
     # a network that has learned the Mindlin plate carries no shear caveat (the stand-in above
     # says beam in its metadata, so the rule is checked directly)
-    from prbdm.commands.predict import answer_caveat
+    from prbdm.surrogate.selection import answer_caveat
     choice = choose_truth(random_beam(3, 0))
     assert answer_caveat(random_beam(3, 0), "mindlin", choice, None) is None
     assert "leaves out transverse shear" in answer_caveat(random_beam(3, 0), "plate", choice, None)
@@ -880,7 +880,7 @@ def test_a_declined_mindlin_network_is_a_warning_not_only_a_reason():
     no Mindlin network at all the reason says which is missing (the shear caveat warns)."""
     from types import SimpleNamespace
 
-    from prbdm.commands.predict import truth_reason
+    from prbdm.surrogate.selection import truth_reason
 
     panel = random_beam(3, 0)
     plate_net = SimpleNamespace(truth="plate", name="plate-n4", joints=4)

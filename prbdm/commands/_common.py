@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import json
-import math
 import sys
 
 from ..errors import BadInput
 from ..files import atomic_write  # noqa: F401  (the commands' writer; one home: prbdm.files)
+from ..parsing import float_list  # noqa: F401  (the commands' number lists; one home)
 
 
 def add_beam_argument(parser):
@@ -119,27 +119,6 @@ def progress_bar(desc: str, delay: float = 2.0):
         bar.update(i - bar.n)
 
     return update, bar.close
-
-
-def float_list(text: str, name: str, *, minimum=None, positive=False) -> list[float]:
-    """Parse ``"a,b,c"`` into finite floats; BadInput naming ``name`` otherwise."""
-    fields = str(text).split(",")
-    if all(v.strip() == "" for v in fields):
-        raise BadInput(f"{name}: must not be empty")
-    if any(v.strip() == "" for v in fields):
-        raise BadInput(f"{name}: empty field in {text!r}; give a comma-separated list of numbers "
-                       "with no empty entries")
-    try:
-        values = [float(v) for v in fields]
-    except ValueError:
-        raise BadInput(f"{name}: must be a comma-separated list of numbers, got {text!r}") from None
-    if not all(math.isfinite(v) for v in values):
-        raise BadInput(f"{name}: all values must be finite, got {text!r}")
-    if positive and any(v <= 0 for v in values):
-        raise BadInput(f"{name}: all values must be > 0, got {text!r}")
-    if minimum is not None and any(v < minimum for v in values):
-        raise BadInput(f"{name}: all values must be >= {minimum}, got {text!r}")
-    return values
 
 
 def positive_int(minimum: int = 1, maximum: int | None = None):

@@ -35,8 +35,16 @@ import time
 import numpy as np
 
 from ..constants import REFINE_ITER
-from ._common import add_beam_argument, positive_int, print_json, progress_bar, read_beam, table
-from .predict import add_extrapolation_argument, add_objective_argument, load_surrogate
+from ._common import (
+    add_beam_argument,
+    load_beam_file,
+    positive_int,
+    print_json,
+    progress_bar,
+    read_beam,
+    table,
+)
+from .predict import add_extrapolation_argument, add_objective_argument
 
 
 def add_arguments(parser):
@@ -78,23 +86,16 @@ def run(args) -> int:
     import warnings as _w
 
     from .. import surrogate
+    from ..surrogate import selection
     from ..truth.choice import shear_caveat, width_ratio
-    from .predict import (NARROW_PLATE, answer_or_fall_back, auto_choice, narrow_plate_reason,
-                          network_truth)
 
     # `--truth auto` (the default): the truth the panel needs, and that truth's network when one
-    # is found and can answer this panel; otherwise the beam network, measured against it
-    if args.truth == "auto":
-        args.truth = None
-    choice = auto_choice(args)
-    chosen = network_truth(args, choice)
-    sur = load_surrogate(args, chosen)
-    if choice is not None and args.checkpoint is None:
-        model, reason = choice
-    else:
-        model = sur.truth
-        reason = f"--truth {args.truth} as asked" if args.truth else "the checkpoint's truth"
-    beam, info = read_beam(args, "compare", model=model)
+    # is found and can answer this panel; otherwise the beam network, measured against it. The
+    # beam is read once, checked against the limits of the truth it is measured against.
+    request = selection.Request.from_args(args)
+    beam = load_beam_file(args)
+    plan = selection.plan(beam, request)
+    beam, info = read_beam(args, "compare", model=plan.model, beam=beam)
 
     def network_prediction(sur):
         with _w.catch_warnings():
@@ -103,23 +104,17 @@ def run(args) -> int:
             _w.simplefilter("ignore", surrogate.LowAccuracyWarning)  # in the JSON, below
             t0 = time.perf_counter()
             pred = sur.predict(beam, frequencies=True,
-                               allow_extrapolation=args.allow_extrapolation)
+                               allow_extrapolation=request.allow_extrapolation)
             return pred, time.perf_counter() - t0
 
-    notes = []
-    sur, (pred, t_net), declined = answer_or_fall_back(args, sur, chosen, network_prediction,
-                                                       beam)
-    if declined and declined != NARROW_PLATE:
-        notes.append(f"{declined}; {sur.name} is measured instead")
-    if declined == NARROW_PLATE:          # the reason, as predict's truth_reason (no warning)
-        reason += f"; {narrow_plate_reason(sur)}"
+    chosen = selection.answer(plan, beam, network_prediction)
+    sur, (pred, t_net) = chosen.surrogate, chosen.answer
+    model, reason, notes = selection.measured_against(plan, chosen)
     n, r = sur.joints, sur.modes
     R = len(sur.norm["freq_mean"])
     width = width_ratio(beam)
-    notes += [w for w in (sur.accuracy_warning(width),) if w]
-    if sur.truth != model and declined != NARROW_PLATE:     # narrow: the better network, chosen
-        notes.append(f"the {sur.truth} network {sur.name} is measured against the {model} "
-                     f"truth this panel needs (`--truth auto`: {reason})")
+    notes += [w for w in (sur.accuracy_warning(width),
+                          selection.wrong_truth_note(plan, chosen, reason)) if w]
 
     from ..truth import bending_frequencies
 

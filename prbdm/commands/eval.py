@@ -22,7 +22,8 @@ import sys
 import time
 
 from ..errors import BadInput
-from ._common import add_beam_argument, float_list, print_json, read_beam, table
+from ..parsing import float_list, parse_poses
+from ._common import add_beam_argument, print_json, read_beam, table
 
 GAMMA_SUM_TOL = 1e-6
 
@@ -54,25 +55,6 @@ def parse_gamma(text: str) -> list[float]:
         raise BadInput(f"--gamma: the link fractions must sum to 1 (within {GAMMA_SUM_TOL:g}), "
                        f"got sum {total:.9g}")
     return [g / total for g in gamma]
-
-
-def parse_poses(text: str, n: int) -> tuple[str | list[float], list[str]]:
-    """'paper' | 'linear' | a list of angles >= 0 (rad). Returns (spec, warnings)."""
-    spec = str(text).strip()
-    if spec in ("paper", "linear"):
-        return spec, []
-    try:
-        [float(v) for v in spec.split(",") if v.strip()]
-    except ValueError:
-        raise BadInput(f"--poses: must be 'paper', 'linear' or a comma-separated list of angles "
-                       f"in rad, got {text!r}") from None
-    angles = float_list(spec, "--poses", minimum=0.0)
-    warnings = []
-    bad = [a for a in angles if n * a > math.pi / 2 + 1e-12]
-    if bad:
-        warnings.append(f"--poses: {len(bad)} pose(s) have n * theta > pi/2 (n = {n}, theta = "
-                        f"{bad[0]:g}); the paper keeps n * theta <= pi/2")
-    return angles, warnings
 
 
 def parse_k(text: str, m: int) -> list[float]:

@@ -101,7 +101,7 @@ def add_source_arguments(parser, default_poses: str, truths=("auto", "analytic",
 def fit_from_args(args, beam) -> tuple[dict, list[str]]:
     """The fit dictionary asked for on the command line, and warnings."""
     from ..export import load_fit, run_fit
-    from .eval import parse_poses
+    from ..parsing import parse_poses
 
     if args.fit_file is not None:
         given = [name for name in FIT_OPTIONS if getattr(args, name) is not None]
@@ -140,12 +140,12 @@ def carried_warnings(fit: dict, label: str, already: list[str]) -> list[str]:
 def truth_caveat(beam, fit: dict) -> list[str]:
     """The shear caveat (:func:`prbdm.truth.choice.shear_caveat`) of the physics the result
     follows: its truth (``prbdm fit``'s ``truth.model``) or its network's (``prbdm predict``'s
-    ``truth``; as predict says it, :func:`prbdm.commands.predict.answer_caveat`, so that a
+    ``truth``; as predict says it, :func:`prbdm.surrogate.selection.answer_caveat`, so that a
     narrow panel's beam-network answer keeps the plate's caveat). The export's own check
     compares the model with that truth, so it cannot see what the truth leaves out; a result
     that names no truth gets none."""
+    from ..surrogate.selection import answer_caveat
     from ..truth.choice import choose_truth, shear_caveat
-    from .predict import answer_caveat
 
     truth = fit.get("truth")
     model = truth.get("model") if isinstance(truth, dict) else truth

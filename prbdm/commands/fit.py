@@ -15,8 +15,16 @@ import math
 import sys
 
 from ..errors import BadInput
-from ._common import (add_beam_argument, check_plot_path, positive_int, print_json, progress_bar,
-                      read_beam, require, table)
+from ._common import (
+    add_beam_argument,
+    check_plot_path,
+    positive_int,
+    print_json,
+    progress_bar,
+    read_beam,
+    require,
+    table,
+)
 
 TRUTHS = ("analytic", "beam", "plate", "mindlin")
 
@@ -52,7 +60,7 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    from .eval import parse_poses
+    from ..parsing import parse_poses
 
     beam, info = read_beam(args, "fit", model=None if args.truth == "auto" else args.truth)
     n = args.joints

@@ -30,7 +30,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import BadInput
-from ._common import positive_int, print_json, read_beam, require, table
+from ._common import check_plot_path, positive_int, print_json, read_beam, require, table
 from .export import add_source_arguments, finite_float, fit_from_args
 
 
@@ -59,11 +59,10 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..simulate import check_damping, plot_simulation, simulate, truth_and_duration
-    from .fit import _check_plot_path
 
     check_damping(args.damping)           # before the fit: an overdamped beam has no period
     if args.plot:
-        _check_plot_path(args.plot)
+        check_plot_path(args.plot)
         require("matplotlib", purpose="--plot")
     beam, beam_info = read_beam(args, "simulate")
     from ..truth.choice import beam_gap_warning

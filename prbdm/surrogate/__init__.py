@@ -6,8 +6,10 @@ correction factor ``k`` per pose and the beam's own truth frequencies out. See d
 
 Read in this order:
 
-1. :mod:`.numpy_model`: beams as arrays (:class:`BeamBatch`) and a NumPy PRBDM
-   (:func:`prbdm_eigenvalues`, :func:`link_table`), the twin of :mod:`prbdm.model` without torch.
+1. :mod:`prbdm.chain`: beams as arrays (:class:`BeamBatch`) and the NumPy PRBDM
+   (:func:`prbdm_eigenvalues`, :func:`link_table`, :func:`uniform_gamma`), the one home of the
+   chain's physics; :mod:`prbdm.model` is its torch twin for the fit (``.numpy_model`` is the
+   old import path, kept).
 2. :mod:`.features`: a fixed-size, invariant description of the planform (:func:`features`).
 3. :mod:`.decode`: the network's raw head to valid outputs (gamma on the bounded simplex, k > 0,
    the truth frequencies as a correction of the equal-link chain's), NumPy and torch.
@@ -26,6 +28,14 @@ Importing this package imports NumPy and safetensors only, so ``prbdm predict`` 
 """
 from __future__ import annotations
 
+from ..chain import (
+    BeamBatch,
+    link_table,
+    loss_percent_np,
+    prbdm_eigenvalues,
+    span_integrals,
+    uniform_gamma,
+)
 from .checkpoint import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_VERSION,
@@ -61,7 +71,6 @@ from .features import (
     feature_names,
     features,
     rfe_log_omega,
-    uniform_gamma,
 )
 from .neighbours import (
     LIMIT_QUANTILE,
@@ -70,7 +79,6 @@ from .neighbours import (
     build_reference,
     nearest_distance,
 )
-from .numpy_model import BeamBatch, link_table, loss_percent_np, prbdm_eigenvalues, span_integrals
 from .prediction import (
     FREQ_FACTOR,
     K_RANGE,

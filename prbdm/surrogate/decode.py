@@ -15,8 +15,7 @@ import math
 
 import numpy as np
 
-from .numpy_model import prbdm_eigenvalues
-
+from ..chain import prbdm_eigenvalues
 from ..constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402,F401  (GAMMA_MAX re-exported)
 
 

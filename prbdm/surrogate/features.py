@@ -45,9 +45,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..chain import (
+    BeamBatch,
+    links_from_gamma,
+    span_integrals,
+    straight_mass_matrix,
+    straight_projected_mass,
+    uniform_gamma,
+)
 from ..errors import BadInput
-from .numpy_model import (BeamBatch, links_from_gamma, span_integrals, straight_mass_matrix,
-                          straight_projected_mass)
 
 #: beams per piece in features() and Surrogate.forward(): bounds the memory of large batches
 CHUNK = 2048
@@ -59,13 +65,6 @@ SPREAD_POINTS = 193
 #: floor of w / max(w) in the ``profile`` features: a neck narrower than 1 % of the widest
 #: section reads as 1 %, so that a near-zero width is not an extrapolation of its log
 PROFILE_FLOOR = 1e-2
-
-
-def uniform_gamma(n: int) -> np.ndarray:
-    """Link fractions of the equal-link chain with n joints: [1/2, 1, ..., 1, 1/2] / n."""
-    g = np.ones(n + 1)
-    g[0] = g[-1] = 0.5
-    return g / n
 
 
 def _rfe_straight(batch_x, w, n: int, stiffness=None):

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..chain import BeamBatch, prbdm_eigenvalues
 from ..constants import (
     ACCURACY_WARN_FREQ_PERCENT,
     ACCURACY_WARN_LOSS_PERCENT,
@@ -44,7 +45,6 @@ from .checkpoint import (
 from .decode import SELECT_POSES, combine_members, concatenate_outputs, decode_numpy, silu
 from .features import CHUNK, FeatureSpec, features
 from .neighbours import NEIGHBOURS_TENSOR, nearest_distance
-from .numpy_model import BeamBatch, prbdm_eigenvalues
 
 #: fraction of a feature's training range by which an input may exceed it before a warning
 OOD_MARGIN = 0.05

@@ -1,0 +1,314 @@
+"""The PRBDM chain in NumPy: one home for its physics (links from gamma, exact span integrals,
+mass matrix, the ``beam`` stiffness law, eigenvalues, the SI link table), used by
+``prbdm predict`` (through :mod:`prbdm.surrogate`), the features, and the training checks.
+:mod:`prbdm.model` is its torch twin, kept only where gradients are needed (the fit and the
+training); ``tests/test_surrogate.py`` checks that the two agree. No torch here, so that
+``prbdm predict`` starts in a fraction of a second (importing torch alone takes about 2 s on a
+busy machine).
+
+- :class:`BeamBatch`: padded NumPy arrays of stations and half-widths divided by L, plus
+  thickness, length and material;
+- :func:`uniform_gamma`: the equal-link (rigid-finite-element) chain's link fractions;
+- :func:`prbdm_eigenvalues`, :func:`link_table`: the PRBDM of a batch of beams;
+- :func:`span_integrals`, :func:`links_from_gamma`, :func:`mass_matrix` and the straight-pose
+  fast path (:func:`straight_mass_matrix`, :func:`straight_projected_mass`) that the features
+  use.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import BadInput
+from .geometry import Beam, Material, check_prbdm_width_ratio
+
+
+@dataclass(frozen=True)
+class BeamBatch:
+    """B beams as NumPy arrays. x, w: (B, S) stations and half-widths divided by L (x from 0 to
+    1; beams with fewer stations are padded by repeating their tip); length, thickness [m],
+    E [Pa], rho [kg/m^3], nu: (B,)."""
+
+    x: np.ndarray
+    w: np.ndarray
+    length: np.ndarray
+    thickness: np.ndarray
+    E: np.ndarray
+    rho: np.ndarray
+    nu: np.ndarray
+
+    def __len__(self):
+        return self.x.shape[0]
+
+    @classmethod
+    def from_beams(cls, beams) -> "BeamBatch":
+        if isinstance(beams, Beam):
+            beams = [beams]
+        beams = list(beams)
+        if not beams:
+            raise BadInput("beams: need at least one beam")
+        for b in beams:
+            if not isinstance(b, Beam):
+                raise BadInput(f"beams: must be prbdm.geometry.Beam objects, got "
+                               f"{type(b).__name__}")
+            check_prbdm_width_ratio(b)
+        return cls.from_arrays([b.x for b in beams], [b.half_width for b in beams],
+                               [b.thickness for b in beams], [b.material for b in beams])
+
+    @classmethod
+    def from_arrays(cls, xs, half_widths, thickness, material=None) -> "BeamBatch":
+        """From per-beam station and half-width lists [m] (a data set's ``x`` and ``half_width``
+        columns), thicknesses [m] and one :class:`Material` or one per beam."""
+        B = len(xs)
+        S = max(len(x) for x in xs)
+        X = np.empty((B, S))
+        W = np.empty((B, S))
+        for i, (x, w) in enumerate(zip(xs, half_widths)):
+            n = len(x)
+            X[i, :n], W[i, :n] = x, w
+            X[i, n:], W[i, n:] = x[-1], w[-1]
+        L = X[:, -1].copy()
+        X /= L[:, None]
+        W /= L[:, None]
+        X[:, -1] = 1.0
+        if material is None or isinstance(material, Material):
+            m = material or Material()
+            mats = np.tile([m.E, m.rho, m.nu], (B, 1))
+        else:
+            mats = np.array([[m.E, m.rho, m.nu] for m in material])
+        return cls(X, W, L, np.asarray(thickness, dtype=np.float64).reshape(B),
+                   mats[:, 0].copy(), mats[:, 1].copy(), mats[:, 2].copy())
+
+    @classmethod
+    def from_table(cls, table, material: Material | dict | None = None) -> "BeamBatch":
+        """From a data set table (pyarrow Table or pandas DataFrame with columns ``x``,
+        ``half_width``, ``thickness``); ``material`` is the data set's (``spec['beam']
+        ['material']``)."""
+        if isinstance(material, dict):
+            material = Material(**material)
+        if hasattr(table, "column"):                       # pyarrow
+            xs = table.column("x").to_pylist()
+            ws = table.column("half_width").to_pylist()
+            t = table.column("thickness").to_numpy()
+        else:                                              # pandas
+            xs, ws, t = list(table["x"]), list(table["half_width"]), table["thickness"].to_numpy()
+        return cls.from_arrays(xs, ws, t, material)
+
+    @property
+    def lambda0(self) -> np.ndarray:
+        """Eigenvalue scale E t^2 / (rho L^4) [rad^2/s^2]."""
+        return self.E * self.thickness ** 2 / (self.rho * self.length ** 4)
+
+    def take(self, idx) -> "BeamBatch":
+        return BeamBatch(*(getattr(self, f)[idx] for f in
+                           ("x", "w", "length", "thickness", "E", "rho", "nu")))
+
+
+def uniform_gamma(n: int) -> np.ndarray:
+    """Link fractions of the equal-link chain with n joints: [1/2, 1, ..., 1, 1/2] / n (the
+    rigid-finite-element chain; :func:`prbdm.model.uniform_gamma` is its torch twin)."""
+    g = np.ones(n + 1)
+    g[0] = g[-1] = 0.5
+    return g / n
+
+
+def _inv_logmean(lo, hi):
+    u = (hi - lo) / lo
+    small = np.abs(u) < 1e-3
+    u_safe = np.where(small, 1.0, u)
+    exact = np.log1p(u_safe) / u_safe
+    series = 1 - u / 2 + u * u / 3 - u * u * u / 4
+    return np.where(small, series, exact) / lo
+
+
+def _simpson(h, xa, xb, wa, wb, parts=(0, 1, 2, 3)):
+    """Integrals over [xa, xb] (length h) of 2 w, 2 x w, 2 x^2 w (Simpson: exact for the cubic)
+    and of 1 / w, for w linear from wa to wb: the ones named by ``parts`` (0..3), in order."""
+    out = []
+    if 1 in parts or 2 in parts:
+        xm, wm = (xa + xb) / 2, (wa + wb) / 2
+    for p in parts:
+        if p == 0:
+            out.append(h * (wa + wb))
+        elif p == 1:
+            out.append(h / 3 * (xa * wa + 4 * xm * wm + xb * wb))
+        elif p == 2:
+            out.append(h / 3 * (xa * xa * wa + 4 * xm * xm * wm + xb * xb * wb))
+        else:
+            out.append(h * _inv_logmean(wa, wb))
+    return out
+
+
+def _segments(x, q):
+    """Index k (B, Q) of the planform segment [x_k, x_k+1] that holds each q: the number of
+    stations x_0..x_{S-2} at or below q, less one, clipped to [0, S-2]. One sorted search over
+    the rows laid end to end (each row shifted by twice its number; x, q lie in [0, 1])."""
+    B, S = x.shape
+    shift = 2.0 * np.arange(B)[:, None]
+    flat = (x[:, :-1] + shift).ravel()
+    pos = np.searchsorted(flat, (q + shift).ravel(), side="right").reshape(q.shape)
+    return np.clip(pos - (S - 1) * np.arange(B)[:, None] - 1, 0, S - 2)
+
+
+def _cumulative(x, w, q, parts=(0, 1, 2, 3)):
+    """Integrals from 0 to q of 2 w, 2 x w, 2 x^2 w and 1 / w (``parts`` 0..3, the ones asked
+    for, in order): x, w (B, S), q (B, Q) in [0, 1].
+
+    Cost O(B (S + Q) log(B S)): whole segments by prefix sums, the part of q's own segment by
+    Simpson's rule; this is what makes the batched prediction fast."""
+    h = np.diff(x, axis=-1)
+    full = _simpson(h, x[:, :-1], x[:, 1:], w[:, :-1], w[:, 1:], parts)
+    cums = [np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(p, -1)], -1) for p in full]
+    k = _segments(x, q)
+    xk = np.take_along_axis(x, k, -1)
+    wk = np.take_along_axis(w, k, -1)
+    hk = np.take_along_axis(h, k, -1)
+    wk1 = np.take_along_axis(w[:, 1:], k, -1)
+    slope = np.where(hk > 0, (wk1 - wk) / np.where(hk > 0, hk, 1.0), 0.0)
+    dq = np.clip(q - xk, 0.0, None)
+    part = _simpson(dq, xk, xk + dq, wk, wk + slope * dq, parts)
+    return [np.take_along_axis(c, k, -1) + p for c, p in zip(cums, part)]
+
+
+def span_integrals(x, w, a, b):
+    """NumPy twin of :func:`prbdm.sections.span_integrals` for x, w (B, S) and spans a, b
+    (B, C): (area, first, second, compliance) (B, C), moments about each span's midpoint. Built
+    from cumulative integrals (see :func:`_cumulative`); agrees with the torch version to about
+    1e-12 relative for spans of at least 0.025 L."""
+    C = a.shape[-1]
+    F = _cumulative(x, w, np.concatenate([np.broadcast_to(a, b.shape), b], -1))
+    m0, m1, m2, mc = (f[:, C:] - f[:, :C] for f in F)
+    mid = (a + b) / 2
+    first = m1 - mid * m0
+    second = m2 - 2 * mid * m1 + mid * mid * m0
+    return m0, first, second, mc
+
+
+def links_from_gamma(x, w, gamma):
+    """NumPy twin of :func:`prbdm.model.links_from_gamma` (nondimensional): dict of cuts (...,
+    n+2), length (..., n+1), mass, com, inertia, mean_half_width, tributary_compliance (..., n).
+
+    The cumulative integrals are evaluated once at the 2n + 1 distinct points (the cuts and the
+    centres of links 1..n-1); links and tributary spans are differences of them."""
+    inner = np.cumsum(gamma[..., :-1], axis=-1)
+    zero = np.zeros_like(inner[..., :1])
+    cuts = np.concatenate([zero, inner, zero + 1.0], axis=-1)          # (B, n+2)
+    mids = (cuts[..., 2:-1] + cuts[..., 1:-2]) / 2                      # centres of links 1..n-1
+    # the mass moments at the cuts, the compliance at the link centres and the free end
+    m0, m1, m2 = (f[:, 1:] - f[:, :-1] for f in _cumulative(x, w, cuts[:, 1:], (0, 1, 2)))
+    mid = (cuts[:, 2:] + cuts[:, 1:-1]) / 2
+    first = m1 - mid * m0
+    second = m2 - 2 * mid * m1 + mid * mid * m0
+    # tributary spans: [0, c_1], [c_1, c_2], ..., [c_{n-1}, 1] with c_j the centre of link j
+    (fc,) = _cumulative(x, w, np.concatenate([mids, cuts[:, -1:]], -1), (3,))
+    ends = fc                                                           # c_1..c_{n-1}, then 1
+    starts = np.concatenate([np.zeros_like(fc[:, :1]), fc[:, :-1]], -1)  # 0, then c_1..c_{n-1}
+    length = cuts[..., 1:] - cuts[..., :-1]
+    lj = length[..., 1:]
+    return {"cuts": cuts, "length": length, "mass": m0, "com": lj / 2 + first / m0,
+            "inertia": second - first ** 2 / m0, "mean_half_width": m0 / (2 * lj),
+            "tributary_compliance": ends - starts}
+
+
+def mass_matrix(links, theta):
+    """NumPy twin of :func:`prbdm.model.mass_matrix` for poses theta (m, n): (..., m, n, n)."""
+    n = theta.shape[-1]
+    q = np.cumsum(theta, axis=-1)                                        # (m, n)
+    e = np.stack([np.cos(q), np.sin(q)], axis=-1)                        # (m, n, 2)
+    ell = links["length"][..., None, 1:-1, None]                         # (..., 1, n-1, 1)
+    steps = np.cumsum(ell * e[:, :-1, :], axis=-2)                       # (..., m, n-1, 2)
+    pad = np.zeros(steps.shape[:-2] + (1, 2))
+    steps = np.concatenate([pad, steps], axis=-2)                        # (..., m, n, 2)
+    x1 = links["cuts"][..., 1]
+    p1 = np.stack([x1, np.zeros_like(x1)], axis=-1)[..., None, None, :]
+    p = p1 + steps
+    rc = p + links["com"][..., None, :, None] * e                        # (..., m, n, 2)
+    lower = np.tril(np.ones((n, n)))                                     # [j, k]: k <= j
+    d = (rc[..., :, None, :] - p[..., None, :, :]) * lower[..., None]    # (..., m, j, k, 2)
+    md = links["mass"][..., None, :, None, None] * d
+    # M_kl = sum_j,d m_j d_jkd d_jld as one batched matrix product over (j, d)
+    shape = d.shape[:-3] + (n, 2 * n)
+    a = np.swapaxes(md, -3, -2).reshape(shape)
+    M = a @ np.swapaxes(np.swapaxes(d, -3, -2).reshape(shape), -1, -2)
+    tail = np.flip(np.cumsum(np.flip(links["inertia"], -1), -1), -1)
+    idx = np.maximum(np.arange(n)[:, None], np.arange(n)[None, :])
+    return M + tail[..., idx][..., None, :, :]
+
+
+def straight_generators(links):
+    """Generators of M at theta = 0: ``M_kl = u_L + p_K v_L`` with ``K = min(k, l)``,
+    ``L = max(k, l)`` (a semiseparable matrix). Every link lies on the x axis, so
+    M_kl = sum_{j >= max(k,l)} m_j (c_j - p_k)(c_j - p_l) + J_j, with c_j the centres and p_k the
+    joints, is a combination of suffix sums of m_j, m_j c_j, m_j c_j^2 and J_j."""
+    def suffix(v):
+        return np.flip(np.cumsum(np.flip(v, -1), -1), -1)
+
+    m = links["mass"]
+    p = links["cuts"][..., 1:-1]
+    c = p + links["com"]
+    t0, t1, t2 = suffix(m), suffix(m * c), suffix(m * c * c)
+    tj = suffix(links["inertia"])
+    return t2 + tj - p * t1, p, p * t0 - t1
+
+
+def straight_mass_matrix(links):
+    """M at theta = 0 (..., n, n) in O(n^2) from its generators."""
+    u, p, v = straight_generators(links)
+    n = u.shape[-1]
+    hi = np.maximum.outer(np.arange(n), np.arange(n))
+    lo = np.minimum.outer(np.arange(n), np.arange(n))
+    return u[..., hi] + p[..., lo] * v[..., hi]
+
+
+def straight_projected_mass(links, V):
+    """``V^T M V`` (..., q, q) at theta = 0 in O(n q^2), without forming M: with the generators,
+    sum_{k <= l} V_k M_kl = u_l S0_l + v_l S1_l for the prefix sums S0 of V and S1 of p V."""
+    u, p, v = straight_generators(links)
+    S0 = np.cumsum(V, axis=-2)
+    S1 = np.cumsum(p[..., None] * V, axis=-2)
+    incl = u[..., None] * S0 + v[..., None] * S1                          # k <= l
+    strict = incl - (u + p * v)[..., None] * V                            # k < l
+    return np.swapaxes(incl, -1, -2) @ V + np.swapaxes(V, -1, -2) @ strict
+
+
+def prbdm_eigenvalues(x, w, gamma, poses, with_links: bool = False):
+    """Nondimensional PRBDM eigenvalues with every SCF 1 and the ``beam`` law, (..., m, n)
+    ascending: the NumPy twin of :func:`prbdm.model.eigenvalues_unit_k`. Multiply by ``k_i`` and
+    by ``lambda0`` for SI values. x, w (..., S) / L; gamma (..., n+1); poses (m, n) [rad]."""
+    links = links_from_gamma(x, w, gamma)
+    s = 1.0 / (6.0 * links["tributary_compliance"])                      # (..., n)
+    M = mass_matrix(links, np.asarray(poses, dtype=np.float64))
+    d = (1.0 / np.sqrt(s))[..., None, :]
+    A = d[..., :, None] * M * d[..., None, :]
+    mu = np.linalg.eigvalsh(A)
+    lam = np.flip(1.0 / mu, -1)
+    return (lam, links) if with_links else lam
+
+
+def link_table(batch: BeamBatch, gamma, k=None) -> dict:
+    """SI link table of each beam's PRBDM: ``joint_x`` [m] (joints 1..n), ``length`` [m] (links
+    0..n); for links 1..n ``mass`` [kg], ``com`` [m from the joint], ``inertia`` [kg m^2] about the
+    centre of mass, ``area_moment`` [m^4]; ``base_stiffness`` s_j [N m/rad] (``beam`` law) and,
+    with ``k`` (B, m), ``stiffness`` k_i s_j [N m/rad] per pose (B, m, n)."""
+    gamma = np.asarray(gamma, dtype=np.float64)
+    lk = links_from_gamma(batch.x, batch.w, gamma)
+    L, t, rho, E = (v[:, None] for v in (batch.length, batch.thickness, batch.rho, batch.E))
+    s = E * t ** 3 / (6.0 * lk["tributary_compliance"])
+    out = {"joint_x": lk["cuts"][..., 1:-1] * L, "length": lk["length"] * L,
+           "mass": lk["mass"] * rho * t * L ** 2, "com": lk["com"] * L,
+           "inertia": lk["inertia"] * rho * t * L ** 4,
+           "area_moment": 2 * lk["mean_half_width"] * L * t ** 3 / 12, "base_stiffness": s}
+    if k is not None:
+        out["stiffness"] = np.asarray(k, dtype=np.float64)[:, :, None] * s[:, None, :]
+    return out
+
+
+
+def loss_percent_np(omega_or_lam_pose, lam_truth, r: int, is_lambda: bool = True):
+    """NumPy twin of :func:`prbdm.model.loss_percent`: (..., m, n) eigenvalues per pose against
+    (..., R) truth eigenvalues, first r modes, in percent."""
+    lam = omega_or_lam_pose if is_lambda else omega_or_lam_pose ** 2
+    ref = lam_truth[..., None, :r]
+    rel = np.linalg.norm(lam[..., :r] - ref, axis=-1) / np.linalg.norm(ref, axis=-1)
+    return 100.0 * rel.mean(-1)
