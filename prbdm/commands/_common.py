@@ -19,7 +19,7 @@ def add_beam_argument(parser):
                              f"{SIMPLIFY_RTOL:g} of its local half-width, docs/conventions.md §4)")
 
 
-def load_beam_file(args):
+def beam_from_file(args):
     """The beam of ``args.beam`` (a file, or ``-``: standard input) as given: read once, not yet
     checked against any truth's limits (e.g. to choose a network by the panel's width first);
     :func:`read_beam` with ``beam=`` then checks and prepares it."""
@@ -32,7 +32,7 @@ def read_beam(args, command: str, model: str | None = None, beam=None):
     """The beam of ``args.beam``, checked and ready: (beam, info), the one way every command reads
     a beam (so all refuse the same beams with the same message).
 
-    ``beam``: the beam already read by :func:`load_beam_file` (the file is not read again).
+    ``beam``: the beam already read by :func:`beam_from_file` (the file is not read again).
     Checks :func:`prbdm.geometry.check_beam` (``model``: the truth model's own limits too, when
     the command knows it), simplifies a planform of many stations (unless ``--all-stations``),
     and writes the unit-mistake warnings to stderr. ``info`` is the JSON ``input`` block:
@@ -41,7 +41,7 @@ def read_beam(args, command: str, model: str | None = None, beam=None):
     from ..geometry import check_beam, simplify_planform, unit_warnings
 
     if beam is None:
-        beam = load_beam_file(args)
+        beam = beam_from_file(args)
     check_beam(beam, model)
     info = {"stations": int(beam.x.size), "simplified": None, "warnings": unit_warnings(beam)}
     if not getattr(args, "all_stations", False):

@@ -37,7 +37,7 @@ import numpy as np
 from ..constants import REFINE_ITER
 from ._common import (
     add_beam_argument,
-    load_beam_file,
+    beam_from_file,
     positive_int,
     print_json,
     progress_bar,
@@ -93,7 +93,7 @@ def run(args) -> int:
     # is found and can answer this panel; otherwise the beam network, measured against it. The
     # beam is read once, checked against the limits of the truth it is measured against.
     request = selection.Request.from_args(args)
-    beam = load_beam_file(args)
+    beam = beam_from_file(args)
     plan = selection.plan(beam, request)
     beam, info = read_beam(args, "compare", model=plan.model, beam=beam)
 

@@ -39,7 +39,7 @@ import sys
 from ..constants import OBJECTIVES
 from ..errors import BadInput
 from ..surrogate.selection import TRUTHS, PredictionError
-from ._common import add_beam_argument, load_beam_file, positive_int, print_json, read_beam, table
+from ._common import add_beam_argument, beam_from_file, positive_int, print_json, read_beam, table
 
 
 def add_arguments(parser):
@@ -100,7 +100,7 @@ def predict_command(args) -> int:
     # the beam is read once: `--truth auto` chooses the network from its width, then it is
     # checked against the limits of that network's truth (what `prbdm truth --model TRUTH`
     # refuses, with the same message)
-    beam = load_beam_file(args)
+    beam = beam_from_file(args)
     plan = selection.plan(beam, request)
     beam, info = read_beam(args, "predict", model=plan.surrogate.truth, beam=beam)
     t0 = time.perf_counter()
