@@ -60,6 +60,14 @@ def _inv_logmean(lo, hi):
     return torch.where(small, series, exact) / lo
 
 
+#: a planform with more stations than this is integrated by prefix sums over its segments,
+#: O(S + C log S), instead of clipping every segment to every span, O(C S): a fit of a planform
+#: of 100,000 stations (``--all-stations``) went from about 300 s to seconds. Below it the
+#: clipping is kept: exact to the last digit for short links far from the root, where the prefix
+#: sums' moments about the origin lose about h^2/12 of their digits (1e-12 relative at h = 0.025)
+CUMULATIVE_ABOVE = 256
+
+
 def span_integrals(x, w, a, b, *, compliance: bool = True) -> SpanIntegrals:
     """Integrals of the planform over spans ``[a, b]``.
 
@@ -68,6 +76,8 @@ def span_integrals(x, w, a, b, *, compliance: bool = True) -> SpanIntegrals:
     with a <= b, inside [x_0, x_last]. Leading dimensions broadcast. Returns :class:`SpanIntegrals`
     of shape (..., C).
     """
+    if x.shape[-1] > CUMULATIVE_ABOVE:
+        return _span_integrals_by_prefix_sums(x, w, a, b, compliance)
     xk, xk1 = x[..., None, :-1], x[..., None, 1:]
     wk, wk1 = w[..., None, :-1], w[..., None, 1:]
     a_, b_ = a[..., :, None], b[..., :, None]
@@ -95,3 +105,42 @@ def span_integrals(x, w, a, b, *, compliance: bool = True) -> SpanIntegrals:
     else:
         comp = torch.zeros_like(area)
     return SpanIntegrals(area, first, second, comp)
+
+
+def _pieces(h, xa, wa, wb, compliance: bool):
+    """Integrals over [xa, xa + h] of 2 w, 2 s w, 2 s^2 w (Simpson, exact for these cubics) and
+    of 1 / w, for w linear from wa to wb."""
+    xb = xa + h
+    xm, wm = xa + h / 2, (wa + wb) / 2
+    out = [h * (wa + wb), h / 3 * (xa * wa + 4 * xm * wm + xb * wb),
+           h / 3 * (xa * xa * wa + 4 * xm * xm * wm + xb * xb * wb)]
+    out.append(h * _inv_logmean(wa, wb) if compliance else torch.zeros_like(h))
+    return out
+
+
+def _span_integrals_by_prefix_sums(x, w, a, b, compliance: bool) -> SpanIntegrals:
+    """:func:`span_integrals` for many stations: the integrals from 0 to each bound are the
+    prefix sums of the whole segments before it plus the part of its own segment, and a span's
+    are their differences; moments about the span's midpoint from those about the origin."""
+    lead = torch.broadcast_shapes(x.shape[:-1], a.shape[:-1], b.shape[:-1])
+    S, C = x.shape[-1], a.shape[-1]
+    x = x.expand(*lead, S).contiguous()
+    w = w.expand(*lead, S)
+    q = torch.cat([a.expand(*lead, C), b.expand(*lead, C)], -1).contiguous()
+    xk, wk, h = x[..., :-1], w[..., :-1], x[..., 1:] - x[..., :-1]
+    full = _pieces(h, xk, wk, w[..., 1:], compliance)
+    prefix = [torch.nn.functional.pad(torch.cumsum(f, -1), (1, 0)) for f in full]
+    k = (torch.searchsorted(xk.contiguous(), q, right=True) - 1).clamp(0, S - 2)
+    xq, wq, hq = (torch.gather(v, -1, k) for v in (xk, wk, h))
+    has_length = hq > 0
+    slope = torch.where(has_length,
+                        (torch.gather(w[..., 1:], -1, k) - wq)
+                        / torch.where(has_length, hq, torch.ones_like(hq)), torch.zeros_like(hq))
+    dq = torch.minimum((q - xq).clamp_min(0.0), hq)
+    part = _pieces(dq, xq, wq, wq + slope * dq, compliance)
+    F = [torch.gather(c, -1, k) + p for c, p in zip(prefix, part)]
+    m0, m1, m2, mc = (f[..., C:] - f[..., :C] for f in F)
+    mid = (a + b) / 2
+    first = m1 - mid * m0
+    second = m2 - 2 * mid * m1 + mid * mid * m0
+    return SpanIntegrals(m0, first, second, mc)

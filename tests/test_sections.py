@@ -246,3 +246,49 @@ def test_a_station_on_a_cut_is_the_limit_of_stations_beside_it():
         vals.append(lk.tributary_compliance.numpy()[0])
     np.testing.assert_allclose(vals[1], vals[0], rtol=1e-9)
     np.testing.assert_allclose(vals[1], vals[2], rtol=1e-9)
+
+
+def test_many_stations_integrate_by_prefix_sums_alike():
+    """Above CUMULATIVE_ABOVE stations the integrals come from prefix sums (O(S + C log S));
+    they equal the clipping path's, values and gradients in the cut positions, on batched
+    planforms padded with repeated tip stations, for spans of a link's length and more."""
+    import prbdm.sections as sections
+
+    rng = np.random.default_rng(3)
+    S = sections.CUMULATIVE_ABOVE + 300
+    xs, ws = [], []
+    for real in (S, S - 40):                       # the second is padded to S at its tip
+        x = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0, 1, real - 2)]))
+        w = rng.uniform(0.01, 0.3, real)
+        xs.append(np.concatenate([x, np.full(S - real, 1.0)]))
+        ws.append(np.concatenate([w, np.full(S - real, w[-1])]))
+    x, w = torch.tensor(np.array(xs)), torch.tensor(np.array(ws))
+    lo = rng.uniform(0, 0.97, (2, 12))
+    hi = np.minimum(lo + rng.uniform(0.025, 0.6, (2, 12)), 1.0)
+    lo = np.concatenate([lo, [[0.0], [0.0]]], 1)
+    hi = np.concatenate([hi, [[1.0], [1.0]]], 1)
+
+    def integrals(dense: bool):
+        a = torch.tensor(lo, requires_grad=True)
+        b = torch.tensor(hi, requires_grad=True)
+        old = sections.CUMULATIVE_ABOVE
+        sections.CUMULATIVE_ABOVE = 10 ** 9 if dense else old
+        try:
+            si = span_integrals(x, w, a, b)
+        finally:
+            sections.CUMULATIVE_ABOVE = old
+        total = sum((v * torch.arange(1, v.shape[-1] + 1)).sum() for v in si)
+        ga, gb = torch.autograd.grad(total, (a, b))
+        return [v.detach().numpy() for v in si], ga.numpy(), gb.numpy()
+
+    (d, dga, dgb), (c, cga, cgb) = integrals(True), integrals(False)
+    for name, dv, cv in zip(("area", "first", "second", "compliance"), d, c):
+        np.testing.assert_allclose(cv, dv, rtol=1e-10, atol=1e-13 * np.abs(dv).max(), err_msg=name)
+    # gradients where the bounds are interior (at 0 and 1 a bound sits on a station: a kink, where
+    # each path returns its own one-sided mix; the fit never moves those bounds)
+    inner_a, inner_b = lo > 0, hi < 1
+    np.testing.assert_allclose(cga[inner_a], dga[inner_a], rtol=1e-8,
+                               atol=1e-10 * np.abs(dga).max())
+    np.testing.assert_allclose(cgb[inner_b], dgb[inner_b], rtol=1e-8,
+                               atol=1e-10 * np.abs(dgb).max())
+    assert inner_a.sum() >= 20 and inner_b.sum() >= 12
