@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.polynomial import legendre as npleg
+from scipy.linalg import lu_factor as _lu_factor, lu_solve as _lu_solve
 
 __all__ = ["RodGalerkin", "element_edges"]
 
@@ -111,6 +112,7 @@ class RodGalerkin:
         self.w = (0.5 * h[:, None] * wq[None, :]).ravel()
         self.wq = wq
         self.S = _cumulative_matrix(xq)
+        self._half3 = 0.5 * h[:, None, None]
         self.b = np.interp(self.s, self.stations, self.profile)
         nodes = _gll_nodes(p)
         B, D = _lagrange(nodes, xq)
@@ -138,12 +140,12 @@ class RodGalerkin:
         """Cumulative integral from 0 of ``f`` (values at the Gauss points, first axis) to each
         Gauss point, and the total to s = 1."""
         E, Q = self.E, self.Q
-        fe = f.reshape((E, Q) + f.shape[1:])
-        half = 0.5 * self.h.reshape((E,) + (1,) * (f.ndim - 1))
-        inside = np.einsum("ij,ej...->ei...", self.S, fe) * half[:, None]
-        totals = np.einsum("j,ej...->e...", self.wq, fe) * half
+        fe = f.reshape(E, Q, -1) * self._half3
+        inside = np.matmul(self.S, fe)
+        totals = np.matmul(self.wq, fe)
         offsets = np.cumsum(totals, axis=0) - totals
-        return (inside + offsets[:, None]).reshape(f.shape), totals.sum(axis=0)
+        return (inside + offsets[:, None, :]).reshape(f.shape), totals.sum(axis=0).reshape(
+            f.shape[1:])
 
     def theta(self, q):
         return self.theta_rest + self.Phi @ q
@@ -161,7 +163,8 @@ class RodGalerkin:
     def mass(self, q, J=None):
         if J is None:
             J, _ = self.jacobian(self.theta(q))
-        M = np.einsum("g,gai,gaj->ij", self.w * self.b, J, J)
+        Jw = (J * np.sqrt(self.w * self.b)[:, None, None]).reshape(-1, J.shape[2])
+        M = Jw.T @ Jw
         return M + self.M_rot if self.M_rot is not None else M
 
     # ------------------------------------------------------------------ loads and statics
@@ -175,7 +178,7 @@ class RodGalerkin:
         KG = (self.Phi * (self.w * Fe)[:, None]).T @ self.Phi
         return Qv, KG
 
-    def static(self, F, M0, q0, tol: float = 1e-12, iters: int = 30):
+    def static(self, F, M0, q0, tol: float = 1e-10, iters: int = 30):
         """Newton on K q = Q(q) from ``q0``; returns (q, K_T, converged)."""
         F = np.asarray(F, float)
         q = np.array(q0, float)
@@ -193,17 +196,44 @@ class RodGalerkin:
         return q, self.K + self.load(q, F, M0)[1], False
 
     # ------------------------------------------------------------------ dynamics
-    def accel(self, q, v, F=(0.0, 0.0), M0=0.0):
-        """qddot from Lagrange's equations (exact centripetal/Coriolis terms)."""
+    def forces(self, q, v, F=(0.0, 0.0), M0=0.0):
+        """M(q) and the generalised forces f(q, v) of Lagrange's equations M qddot = f:
+        elastic, centripetal/Coriolis (exact) and the tip load."""
         th = self.theta(q)
         J, _ = self.jacobian(th)
         M = self.mass(q, J)
         thd = self.Phi @ v
         c, _ = self.cumint(-np.stack([np.cos(th), np.sin(th)], axis=1) * (thd ** 2)[:, None])
-        f = -self.K @ q - np.einsum("g,gai,ga->i", self.w * self.b, J, c)
+        wc = c * (self.w * self.b)[:, None]
+        f = -self.K @ q - wc.reshape(-1) @ J.reshape(-1, J.shape[2])
         if F[0] or F[1] or M0:
             f = f + self.load(q, np.asarray(F, float), M0)[0]
+        return M, f
+
+    def accel(self, q, v, F=(0.0, 0.0), M0=0.0):
+        """qddot from Lagrange's equations (exact centripetal/Coriolis terms)."""
+        M, f = self.forces(q, v, F, M0)
         return np.linalg.solve(M, f)
+
+    def midpoint_step(self, q0, v0, h, tol: float = 1e-13, iters: int = 30):
+        """One step of the implicit midpoint rule: ``q1 = q0 + h vm``,
+        ``M(qm) (v1 - v0) = h f(qm, vm)`` at ``qm = (q0 + q1)/2``, ``vm = (v0 + v1)/2``; solved
+        for ``u = q1 - q0`` by Newton with the frozen matrix ``(2/h) M(q0) + (h/2) K``.
+        Second order, symmetric, A-stable and without numerical damping: the rod's stiff high
+        modes need not be resolved."""
+        M0_, f0 = self.forces(q0, v0)
+        A = (2.0 / h) * M0_ + 0.5 * h * self.K
+        lu = _lu_factor(A)
+        u = h * v0 + 0.5 * h * h * np.linalg.solve(M0_, f0)
+        for _ in range(iters):
+            M, f = self.forces(q0 + 0.5 * u, u / h)
+            res = M @ (2.0 * u / h - 2.0 * v0) - h * f
+            du = _lu_solve(lu, res)
+            u -= du
+            if np.max(np.abs(du)) <= tol * (1.0 + np.max(np.abs(u))):
+                return q0 + u, 2.0 * u / h - v0
+        raise ArithmeticError("the implicit midpoint iteration did not converge; "
+                              "take more steps per period")
 
     def rhs(self, t, y):
         n = self.n

@@ -312,3 +312,310 @@ def _compliance(sc: _Scaled) -> float:
         total += (s1 - s0) * (math.log(b1 / b0) / (b1 - b0) if abs(b1 - b0) > 1e-12 * b0
                               else 1.0 / b0)
     return total
+
+
+# ---------------------------------------------------------------------------- stress-free shapes
+@dataclass(frozen=True)
+class RestShape:
+    """A stress-free (curved) rest shape: ``theta(s)`` [rad] of the arc length ``s`` [m], with
+    ``theta(0) = 0`` (the clamp holds the root along x); ``breaks`` [m]: where it has a kink or
+    a jump (they become element edges, keeping the discretisation's accuracy)."""
+
+    theta: Callable[[np.ndarray], np.ndarray]
+    breaks: tuple = ()
+    name: str = ""
+
+
+def arc_shape(beam: Beam, tip_angle: float) -> RestShape:
+    """A circular arc, ``theta(s) = tip_angle s / L`` (the shape of the chain's uniform pose in
+    the limit of many joints)."""
+    ta = _number(tip_angle, "tip_angle", -MAX_MOMENT_ANGLE, MAX_MOMENT_ANGLE, " rad")
+    L = beam.length
+    return RestShape(theta=lambda s: ta * np.asarray(s, float) / L, name=f"arc {ta:g} rad")
+
+
+def chain_shape(beam: Beam, gamma, angles) -> RestShape:
+    """The shape of a chain pose: links of lengths ``gamma * L`` (link 0 along x), relative joint
+    angles ``angles`` [rad] (one per joint, or one number for all): ``theta`` piecewise constant,
+    the absolute link angles, with jumps at the joints."""
+    g = np.asarray(gamma, float)
+    if g.ndim != 1 or g.size < 2 or not np.all(np.isfinite(g)) or np.any(g <= 0) \
+            or abs(g.sum() - 1.0) > 1e-9:
+        raise BadInput("gamma: must be a list of at least 2 link fractions > 0 summing to 1")
+    a = np.broadcast_to(np.asarray(angles, float), (g.size - 1,)).copy() \
+        if np.ndim(angles) == 0 else np.asarray(angles, float)
+    if a.shape != (g.size - 1,) or not np.all(np.isfinite(a)):
+        raise BadInput(f"angles: must be one number or {g.size - 1} numbers (one per joint)")
+    L = beam.length
+    joints = L * np.cumsum(g)[:-1]
+    absolute = np.concatenate([[0.0], np.cumsum(a)])
+
+    def theta(s):
+        return absolute[np.searchsorted(joints, np.asarray(s, float), side="right")]
+    return RestShape(theta=theta, breaks=tuple(joints), name="chain pose")
+
+
+def sampled_shape(s, theta, breaks=()) -> RestShape:
+    """A rest shape given by samples ``theta`` [rad] at arc lengths ``s`` [m] (linear between)."""
+    s = np.asarray(s, float)
+    th = np.asarray(theta, float)
+    if s.ndim != 1 or s.shape != th.shape or s.size < 2 or np.any(np.diff(s) <= 0) \
+            or not np.all(np.isfinite(th)):
+        raise BadInput("theta: must be finite samples at strictly increasing arc lengths s")
+    return RestShape(theta=lambda x: np.interp(x, s, th), breaks=tuple(breaks), name="sampled")
+
+
+# ---------------------------------------------------------------------------- frequencies
+#: the most modes :func:`rod_frequencies` gives
+MAX_MODES = 20
+
+
+@dataclass
+class RodFrequencies:
+    """Small-vibration frequencies of the rod about a configuration: ``omega`` [rad/s] ascending,
+    ``freq_hz``, ``lam`` (nondimensional ``(omega T)^2``, ``T = sqrt(rho A_max L^4 / E I_max)``),
+    ``about`` ("straight", "equilibrium" or "stress-free"), ``tip_angle`` [rad] of that
+    configuration, ``mesh`` (elements, degree, unknowns), ``time_s``."""
+
+    omega: np.ndarray
+    freq_hz: np.ndarray
+    lam: np.ndarray
+    about: str
+    tip_angle: float
+    mesh: dict
+    time_s: float
+    model: str = "rod"
+
+    def to_dict(self) -> dict:
+        return {"model": self.model, "omega": [float(v) for v in self.omega],
+                "freq_hz": [float(v) for v in self.freq_hz], "about": self.about,
+                "tip_angle": self.tip_angle, "mesh": dict(self.mesh), "time_s": self.time_s}
+
+
+def _model(sc: _Scaled, about, rotary, elements, degree) -> RodGalerkin:
+    rot = sc.rotary if rotary else 0.0
+    if isinstance(about, RestShape):
+        L = sc.L
+        th0 = float(np.asarray(about.theta(np.array([0.0])), float).ravel()[0])
+        if abs(th0) > 1e-12:
+            raise BadInput(f"about: a rest shape must leave the clamp along x (theta(0) = 0), "
+                           f"got theta(0) = {th0:.4g} rad")
+        br = np.asarray(about.breaks, float) / L
+        return RodGalerkin(sc.xs, sc.b, elements=elements, degree=degree, rotary=rot,
+                           theta_rest=lambda s: np.asarray(about.theta(s * L), float),
+                           breaks=br[(br > 0) & (br < 1)])
+    return RodGalerkin(sc.xs, sc.b, elements=elements, degree=degree, rotary=rot)
+
+
+def _discrete_equilibrium(sc: _Scaled, model: RodGalerkin, eq: RodEquilibrium):
+    """The discretised rod's equilibrium under ``eq``'s load, from ``eq``'s shape; returns
+    (q, K_T, F, M0) nondimensional."""
+    F = np.asarray(eq.force, float) / sc.force
+    M0 = eq.moment / sc.moment
+    q0 = np.interp(model.node_s, eq.s / sc.L, eq.theta)
+    q, KT, ok = model.static(F, M0, q0)
+    if not ok:       # continuation in the discretised model from the straight rod
+        q = np.zeros(model.n)
+        for f in np.linspace(0.0, 1.0, 41)[1:]:
+            q, KT, ok = model.static(F * f, M0 * f, q)
+        if not ok:
+            raise BadInput("about: the discretised rod found no equilibrium under this load; "
+                           "raise elements")
+    return q, KT, F, M0
+
+
+def _eig(M, K, modes):
+    """Lowest ``modes`` eigenvalues of K v = lam M v, solved as M v = (1/lam) K v (K is well
+    conditioned, M is not): accurate to ~1e-12 relative on the low modes."""
+    mu = eigh(M, K, eigvals_only=True, subset_by_index=[M.shape[0] - modes, M.shape[0] - 1])
+    return np.sort(1.0 / mu[::-1])
+
+
+def rod_frequencies(beam: Beam, about=None, modes: int = 4, *, rotary: bool = False,
+                    elements: int = ELEMENTS, degree: int = DEGREE) -> RodFrequencies:
+    """Small-vibration bending frequencies of the rod about a configuration.
+
+    about: ``None`` (the straight, stress-free rod), a :class:`RodEquilibrium` from
+    :func:`rod_static` (held by its load: the load's geometric stiffness is included), or a
+    :class:`RestShape` (a stress-free curved rod: :func:`arc_shape`, :func:`chain_shape`,
+    :func:`sampled_shape`). modes: 1 .. ``MAX_MODES``. rotary: add the section's rotary
+    inertia. elements, degree: the discretisation (defaults converge the first 6 modes to
+    ~1e-9).
+    """
+    t0 = time.perf_counter()
+    sc = _scaled(beam)
+    if isinstance(modes, bool) or not isinstance(modes, (int, np.integer)) \
+            or not 1 <= modes <= MAX_MODES:
+        raise BadInput(f"modes: must be an integer in [1, {MAX_MODES}], got {modes!r}")
+    elements, degree = _discretisation(elements, degree)
+    if about is not None and not isinstance(about, (RodEquilibrium, RestShape)):
+        raise BadInput("about: must be None (straight), a RodEquilibrium (rod_static) or a "
+                       f"RestShape (arc_shape, chain_shape, sampled_shape), got "
+                       f"{type(about).__name__}")
+    model = _model(sc, about, rotary, elements, degree)
+    if modes > model.n // 3:
+        raise BadInput(f"modes: at most {model.n // 3} with {model.n} unknowns; raise elements")
+    if isinstance(about, RodEquilibrium):
+        q, K, _, _ = _discrete_equilibrium(sc, model, about)
+        kind, tip = "equilibrium", float(q[-1])
+    else:
+        q, K = np.zeros(model.n), model.K
+        kind = "straight" if about is None else "stress-free"
+        tip = float(about.theta(np.array([sc.L]))[0]) if about is not None else 0.0
+    M = model.mass(q)
+    if np.linalg.eigvalsh(K)[0] <= 0:
+        raise BadInput("about: this equilibrium is unstable (its tangent stiffness is not "
+                       "positive definite): no small-vibration frequencies")
+    lam = _eig(M, K, modes)
+    omega = np.sqrt(lam) / sc.time
+    return RodFrequencies(omega=omega, freq_hz=omega / (2 * math.pi), lam=lam, about=kind,
+                          tip_angle=tip, mesh={"elements": int(model.E), "degree": degree,
+                                               "unknowns": int(model.n), "rotary": bool(rotary)},
+                          time_s=time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------------------- nonlinear response
+@dataclass
+class RodResponse:
+    """Free vibration of the rod released from rest in a static deflection (SI).
+
+    ``t`` [s], ``tip_x``, ``tip_z`` [m], ``tip_angle`` [rad] sampled; ``period`` [s]: the mean of
+    the measured periods ``periods`` (times between successive downward crossings of the tip
+    through z = 0), ``period_error`` its estimated relative error (midpoint: a third of the
+    change between the two step sizes); ``linear_period`` [s]: 2 pi / omega_1 of the straight rod (small amplitude);
+    ``energy_drift``: the largest |E(t) - E(0)| / E(0) over the samples; ``equilibrium``: the
+    released shape (:func:`rod_static`); ``nfev`` right-hand-side evaluations; ``time_s``."""
+
+    t: np.ndarray
+    tip_x: np.ndarray
+    tip_z: np.ndarray
+    tip_angle: np.ndarray
+    period: float
+    periods: np.ndarray
+    period_error: float
+    linear_period: float
+    energy_drift: float
+    equilibrium: RodEquilibrium
+    mesh: dict
+    nfev: int
+    time_s: float
+
+    def to_dict(self) -> dict:
+        return {"model": "rod", "period": self.period,
+                "periods": [float(v) for v in self.periods], "period_error": self.period_error,
+                "linear_period": self.linear_period, "energy_drift": self.energy_drift,
+                "release_tip_angle": self.equilibrium.tip_angle, "mesh": dict(self.mesh),
+                "nfev": self.nfev, "time_s": self.time_s}
+
+
+def _march(model: RodGalerkin, q, v, h, periods, sign, max_steps):
+    """Implicit-midpoint steps of ``h`` until ``periods + 1`` downward crossings of the tip
+    through z = 0 (located on the cubic Hermite interpolant of z and zdot over the step)."""
+    n = model.n
+    t, ts, Qs, Vs, crossings = 0.0, [0.0], [q], [v], []
+    z = model.positions(q)[1][1]
+    zd = (model.tip_velocity(q, v))[1]
+    for _ in range(max_steps):
+        q1, v1 = model.midpoint_step(q, v, h)
+        z1 = model.positions(q1)[1][1]
+        zd1 = model.tip_velocity(q1, v1)[1]
+        if sign * z > 0 >= sign * z1:
+            def herm(x, z=z, z1=z1, zd=zd, zd1=zd1):
+                return ((2 * x ** 3 - 3 * x ** 2 + 1) * z + (x ** 3 - 2 * x ** 2 + x) * h * zd
+                        + (-2 * x ** 3 + 3 * x ** 2) * z1 + (x ** 3 - x ** 2) * h * zd1)
+            x = brentq(herm, 0.0, 1.0, xtol=1e-15) if z1 != 0 else 1.0
+            crossings.append(t + x * h)
+        t += h
+        q, v, z, zd = q1, v1, z1, zd1
+        ts.append(t)
+        Qs.append(q)
+        Vs.append(v)
+        if len(crossings) == periods + 1:
+            return np.array(ts), np.array(Qs), np.array(Vs), np.array(crossings)
+    raise BadInput(f"periods: only {max(len(crossings) - 1, 0)} periods were measured in "
+                   f"{max_steps} steps")
+
+
+def rod_response(beam: Beam, tip_angle: float, *, force_angle: float = math.pi / 2,
+                 periods: int = 3, steps: int = 1024, check: bool = True,
+                 rotary: bool = False, elements: int = 6, degree: int = 4,
+                 method: str = "midpoint", rtol: float = 1e-10) -> RodResponse:
+    """Nonlinear free vibration of ``beam`` released from rest in the static deflection that a
+    tip force at ``force_angle`` [rad] holds at ``tip_angle`` [rad] (:func:`rod_static`).
+
+    Lagrange's equations of the discretised rod (exact mass matrix and centripetal/Coriolis
+    terms, :mod:`prbdm.truth._rod_dynamics`; ``elements`` x ``degree`` angle unknowns) are
+    integrated until ``periods`` full periods have been measured.
+
+    method ``"midpoint"`` (default): the implicit midpoint rule (second order, symmetric,
+    A-stable, no numerical damping), ``steps`` steps per linear period; with ``check`` it runs
+    again at ``steps / 2`` and ``period_error`` is the change of the period between the two
+    (an upper estimate of the error of the finer run; the crossing times converge at the rate
+    the excited higher modes are resolved, see docs/large-deflection.md). ``"DOP853"`` /
+    ``"Radau"``: scipy's ``solve_ivp`` at ``rtol``, which resolves every mode of the
+    discretisation (slow beyond ~10 unknowns: a cross-check for small discretisations).
+    """
+    t0 = time.perf_counter()
+    sc = _scaled(beam)
+    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) \
+            or not 1 <= periods <= 50:
+        raise BadInput(f"periods: must be an integer in [1, 50], got {periods!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) \
+            or not 16 <= steps <= 100000:
+        raise BadInput(f"steps: must be an integer in [16, 100000], got {steps!r}")
+    rtol = _number(rtol, "rtol", 1e-13, 1e-4)
+    if method not in ("midpoint", "DOP853", "Radau"):
+        raise BadInput(f"method: must be one of midpoint, DOP853, Radau, got {method!r}")
+    elements, degree = _discretisation(elements, degree)
+    ta = _number(tip_angle, "tip_angle", -math.pi / 2, math.pi, " rad")
+    if ta == 0:
+        raise BadInput("tip_angle: must be nonzero (the straight rod at rest does not move)")
+    eq = rod_static(beam, tip_angle=ta, force_angle=force_angle)
+    model = _model(sc, None, rotary, elements, degree)
+    q, _, _, _ = _discrete_equilibrium(sc, model, eq)
+    n = model.n
+    lam1 = _eig(model.mass(np.zeros(n)), model.K, 1)[0]
+    T1 = 2 * math.pi / math.sqrt(lam1)                  # nondimensional linear period
+    v0 = np.zeros(n)
+    z0 = model.positions(q)[1][1]
+    sign = 1.0 if z0 > 0 else -1.0
+    nfev = 0
+    if method == "midpoint":
+        max_steps = 4 * steps * (periods + 1)           # periods may grow up to 4x
+        try:
+            ts, Q, V, tc = _march(model, q, v0, T1 / steps, periods, sign, max_steps)
+            per = np.diff(tc)
+            err = float("nan")
+            if check:
+                c2 = _march(model, q, v0, 2 * T1 / steps, periods, sign, max_steps)[3]
+                err = float(np.max(np.abs(np.diff(c2) - per)) / per.mean())
+        except ArithmeticError as exc:
+            raise BadInput(f"steps: {exc}") from None
+    else:
+        def crossing(t, y):
+            return sign * model.positions(y[:n])[1][1]
+        crossing.direction = -1
+        crossing.terminal = periods + 1
+        sol = solve_ivp(model.rhs, (0.0, T1 * (periods + 1) * 4.0), np.concatenate([q, v0]),
+                        method=method, rtol=rtol, atol=rtol * 1e-2, events=crossing,
+                        dense_output=True)
+        tc = sol.t_events[0]
+        if not sol.success or tc.size < periods + 1:
+            raise BadInput(f"method: {method} measured {max(tc.size - 1, 0)} of {periods} "
+                           f"periods ({sol.message})")
+        ts = np.linspace(0.0, tc[-1], int(512 * tc[-1] / T1) + 1)
+        Y = sol.sol(ts)
+        Q, V = Y[:n].T, Y[n:].T
+        per, err, nfev = np.diff(tc), float("nan"), int(sol.nfev)
+    tips = np.array([model.positions(qq)[1] for qq in Q])
+    E = np.array([model.energy(qq, vv) for qq, vv in zip(Q, V)])
+    drift = float(np.max(np.abs(E - E[0])) / E[0])
+    per = per * sc.time
+    return RodResponse(t=ts * sc.time, tip_x=tips[:, 0] * sc.L, tip_z=tips[:, 1] * sc.L,
+                       tip_angle=Q[:, -1].copy(), period=float(per.mean()), periods=per,
+                       period_error=err, linear_period=T1 * sc.time, energy_drift=drift,
+                       equilibrium=eq, mesh={"elements": int(model.E), "degree": degree,
+                                             "unknowns": n, "rotary": bool(rotary),
+                                             "method": method, "steps": steps,
+                                             "rtol": rtol},
+                       nfev=nfev, time_s=time.perf_counter() - t0)
