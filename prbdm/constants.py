@@ -58,3 +58,9 @@ PLATE_NETWORK_MIN_WIDTH = 0.1
 #: hard panel.
 SELF_CHECK_TOLERANCE = 0.05
 SELF_CHECK_IMPLAUSIBLE = 0.5
+#: ... and what an answer made with the paper's eigenvalue loss is judged by: that loss [%]
+#: against the truth, over the poses. The loss weighs the highest mode most and lets mode 1 drift
+#: 10-30 % at the deflected poses by design (docs/method.md), so a per-mode tolerance would warn
+#: on every such answer; its fits reach 0.1 % (beam) and 1.1 % (plate) median on the paper's
+#: panels (README), so beyond 2 % the answer is worse than its method makes it
+SELF_CHECK_LOSS_PERCENT = 2.0

@@ -136,9 +136,9 @@ def test_partial_material_names_the_missing_keys(run, beam_file, given, missing)
 
 def test_full_material_or_none_is_accepted(run, beam_file):
     alu = {"E": 69e9, "rho": 2700.0, "nu": 0.33}
-    rc, out, _ = run("truth", beam_file({**TAPER, "material": alu}), "--json")
+    rc, out, _ = run("truth", beam_file({**TAPER, "material": alu}), "--model", "beam", "--json")
     assert rc == 0
-    rc, out_steel, _ = run("truth", beam_file(TAPER, "steel.json"), "--json")
+    rc, out_steel, _ = run("truth", beam_file(TAPER, "steel.json"), "--model", "beam", "--json")
     assert rc == 0
     # the beam's frequencies scale with sqrt(E / rho): the aluminium was read, not steel
     a, s = json.loads(out)["omega"][0], json.loads(out_steel)["omega"][0]

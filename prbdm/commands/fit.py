@@ -109,7 +109,8 @@ def run(args) -> int:
     # every answer checks itself: the fitted PRBDM at every pose against the truth it was fitted to
     out["self_check"], off = check_answer(
         result.omega, truth.omega, result.modes, result.poses,
-        truth_source=f"the {truth.model} truth", remedy=fit_remedy(args, n, modes))
+        truth_source=f"the {truth.model} truth", remedy=fit_remedy(args, n, modes),
+        objective=args.objective)
     warnings += off
     caveat = shear_caveat(beam, truth.model)
     if caveat:

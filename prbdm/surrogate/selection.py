@@ -294,7 +294,7 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     plate's differs from (issue 16). ``declined``: why the network of the chosen truth did not
     answer (it was found but refused this panel); ``given``: the network was named by
     --checkpoint."""
-    from ..truth.choice import width_ratio
+    from ..truth.choice import band_gap_words, width_ratio
 
     if asked is not None or choice is None:
         return f"--truth {asked} as asked (checkpoint {sur.name})", None
@@ -320,9 +320,7 @@ def truth_reason(beam, sur, asked, choice, declined=None,
     return (f"checkpoint {sur.name} is a {sur.truth} network; {why}",
             f"this panel is {width_ratio(beam):.3g} L wide: its "
             f"faithful truth is the {label} (`--truth auto`), but {missing}, "
-            f"so this answer follows the {sur.truth} physics (the beam is a median 1-5 % off "
-            "the plate on modes 1-4 for panels 0.1-0.5 L wide and 13-50 % at 0.5-1 L, "
-            "docs/truth.md); "
+            f"so this answer follows the {sur.truth} physics ({band_gap_words(beam)}); "
             f"for the {label} use `prbdm fit BEAM --joints {sur.joints} --truth {model}`")
 
 
@@ -339,11 +337,7 @@ def narrow_plate_reason(sur) -> str:
 def self_check_remedy(sur) -> str:
     """What to do about a network's answer that misses its own predicted truth."""
     fit = f"`prbdm fit BEAM --joints {sur.joints} --truth {sur.truth}`"
-    if sur.objective == "eigenvalue":
-        return ("the paper's eigenvalue loss lets the low modes drift at deflected poses: "
-                "`--objective frequency` balances the modes (where such a network is shipped), "
-                f"or fit this panel with {fit} (add `--poses linear` for small vibrations)")
-    return f"fit this panel with {fit}"
+    return f"for a faithful model fit this panel with {fit}"
 
 
 # ------------------------------------------------------------------- one network's answer
@@ -400,7 +394,7 @@ def network_answer(sur, beam, allow_extrapolation: bool = False) -> dict:
     check, off = check_answer(
         pred.omega[0], omega_t, sur.modes, pred.poses,
         truth_source="the truth the network predicted",
-        remedy=self_check_remedy(sur))
+        remedy=self_check_remedy(sur), objective=sur.objective)
     return {
         "beam": {"name": beam.name, "length": beam.length, "thickness": beam.thickness,
                  "mass": beam.mass, "stations": len(beam.x)},

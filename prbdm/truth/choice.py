@@ -149,14 +149,38 @@ def beam_gap(beam, modes: int = 4) -> tuple[str, list[float]] | None:
 def beam_gap_warning(beam, remedy: str, modes: int = 4) -> str | None:
     """The one wording, in every command, for an answer that follows the beam on a panel whose
     truth (``auto``) is a plate: the panel's width and its measured gap, mode by mode. None where
-    ``auto`` takes the beam."""
+    ``auto`` takes the beam, or where this panel's gap is within AUTO_TOLERANCE on every mode."""
     gap = beam_gap(beam, modes)
     if gap is None:
         return None
     model, gaps = gap
     label = "shear-deformable (mindlin) plate" if model == "mindlin" else "Kirchhoff plate"
     worst = max(abs(g) for g in gaps)
+    if worst <= AUTO_TOLERANCE:         # the beam is as good as `auto` asks of it: nothing to say
+        return None
     return (f"this panel is {width_ratio(beam):.3g} L wide: its truth (`--truth auto`) is the "
             f"{label}, and the Euler-Bernoulli beam used here differs from it by "
             f"{', '.join(f'{100 * g:+.2g}' for g in gaps)} % on modes 1-{len(gaps)} "
             f"(both solved for this panel; worst {100 * worst:.2g} %); {remedy}")
+
+
+#: the beam's gap from the plate on the worst of modes 1-4, median and p95 [%], over the paper's
+#: random panels of each full-width band (lo, hi] (``python benchmarks/truth_choice.py --panels 20
+#: --json docs/truth-choice.json``, 157 panels): what a command that runs no FEM can say of a
+#: panel's gap; a smooth panel's is smaller (a uniform strip 0.3 L wide: 2.6-5.7 % on modes 1-4)
+BAND_GAPS = ((0.05, 0.1, 0.58, 4.0), (0.1, 0.2, 1.9, 10.5), (0.2, 0.4, 6.4, 20.8),
+             (0.4, 0.7, 34.0, 74.0), (0.7, None, 101.0, 194.0))
+
+
+def band_gap_words(beam) -> str:
+    """The one wording, without a FEM, of how far the beam's physics is from the plate's for a
+    panel this wide (:data:`BAND_GAPS`), and how to measure this panel's own gap."""
+    b = width_ratio(beam)
+    for lo, hi, median, p95 in BAND_GAPS:
+        if b > lo and (hi is None or b <= hi):
+            span = f"{lo:g}-{hi:g} L" if hi is not None else f"over {lo:g} L"
+            return (f"on the paper's panels {span} wide the beam is a median {median:g} % (p95 "
+                    f"{p95:g} %) off the plate on the worst of modes 1-4; `prbdm truth BEAM "
+                    "--model beam` measures this panel's own gap")
+    return ("`prbdm truth BEAM --model beam` measures how far the beam is from the plate for "
+            "this panel")
