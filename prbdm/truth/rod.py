@@ -290,6 +290,8 @@ def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = m
     F = lam * direction if kind == "force" else np.zeros(2)
     M0 = 0.0 if kind == "force" else lam
     s = np.unique(np.concatenate([np.linspace(0.0, 1.0, int(samples)), sc.xs]))
+    s = s[np.concatenate([[True], np.diff(s) > 1e-12])]       # no near-duplicates
+    s[-1] = 1.0
     tipy, Y = _shoot(sc, F, M0, m0, samples=s)
     return RodEquilibrium(s=s * sc.L, theta=Y[0], x=Y[2] * sc.L, z=Y[3] * sc.L,
                           tip_x=float(tipy[2] * sc.L), tip_z=float(tipy[3] * sc.L),
