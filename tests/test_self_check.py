@@ -107,3 +107,38 @@ def test_best_loss_is_the_papers_loss_or_absent(run, beam_file):
     rc, out, err = run("fit", path, "--joints", 3, "--starts", 4, "--truth", "beam", "--json")
     d = json.loads(out)
     assert d["best_loss_percent"] == d["best_objective_percent"] <= d["loss_percent"] * (1 + 1e-9)
+
+
+STRIP = {"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.005}
+
+
+def test_a_shape_fit_holds_its_stiffness_and_checks_each_pose_against_the_bent_rod(run,
+                                                                                     beam_file):
+    """--pose-target shape: fitted at rest, the stiffness held at every paper pose, each pose
+    compared with the geometrically exact rod bent into that pose's shape (the reference it was
+    made for away from rest); the paper's target says which it is too."""
+    path = beam_file(STRIP)
+    rc, out, err = run("fit", path, "--joints", 4, "--starts", 16, "--pose-target", "shape",
+                       "--json")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["pose_target"] == "shape" and len(d["k"]) == len(d["poses"]) == 6
+    assert len(set(d["k"])) == 1                             # one stiffness, held
+    poses = d["self_check"]["poses"]
+    assert poses["checked"] and poses["truth"] == "the rod in the pose's shape"
+    assert len(d["freq_error"]) == 6 and poses["max_error"] == pytest.approx(
+        max(max(r) for r in d["freq_error"]), rel=1e-12)
+    # a tapered strip held at the paper's poses follows the bent rod within a few percent, at
+    # rest exactly
+    assert poses["max_error"] < 0.05 and d["self_check"]["max_error"] < 1e-6
+    rc, out, err = run("fit", path, "--joints", 4, "--starts", 16, "--json")
+    d = json.loads(out)
+    assert d["pose_target"] == "straight" and len(set(d["k"])) == 6
+
+
+def test_a_shape_fit_of_a_plate_does_not_pretend_to_check_its_poses(run, beam_file):
+    rc, out, err = run("fit", beam_file(ALU_PLATE), "--joints", 3, "--starts", 8,
+                       "--pose-target", "shape", "--json")
+    assert rc == 0, err
+    poses = json.loads(out)["self_check"]["poses"]
+    assert poses["checked"] is False and "shell" in poses["why"]
