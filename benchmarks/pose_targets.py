@@ -38,13 +38,7 @@ from prbdm.fit import fit_prbdm  # noqa: E402
 from prbdm.geometry import random_beam  # noqa: E402
 from prbdm.model import eigenvalues, paper_poses  # noqa: E402
 from prbdm.truth import bending_frequencies  # noqa: E402
-from prbdm.truth.rod import chain_shape, rod_frequencies  # noqa: E402
-
-
-def shape_truth(beam, gamma, poses, modes):
-    """(m, modes) the rod's frequencies in each pose's shape (stress-free) [rad/s]."""
-    return np.stack([rod_frequencies(beam, about=chain_shape(beam, gamma, pose),
-                                     modes=modes).omega for pose in poses])
+from prbdm.pose_target import shape_truths as shape_truth  # noqa: E402
 
 
 def one_beam(beam, n, objective="eigenvalue"):

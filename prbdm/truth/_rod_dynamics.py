@@ -85,6 +85,26 @@ def element_edges(breaks, elements: int) -> np.ndarray:
     return np.array(edges)
 
 
+#: largest ratio of the width across one element: the curvature under a moment goes like
+#: 1 / (E I), which a polynomial follows poorly where the width changes many times over within an
+#: element (random_beam(0, 1), its width 20 times smaller over 0.013 L: mode 1 7e-4 above the
+#: converged value with 12 elements, 1e-5 with the width graded by this ratio)
+WIDTH_STEP = 1.25
+
+
+def _width_grading(stations, profile) -> np.ndarray:
+    """Extra element edges inside each planform segment where the width changes by more than
+    WIDTH_STEP: at the points where it has changed by each further factor of WIDTH_STEP."""
+    extra = []
+    for a, c, ba, bc in zip(stations[:-1], stations[1:], profile[:-1], profile[1:]):
+        lo, hi = min(ba, bc), max(ba, bc)
+        if c <= a or lo <= 0 or hi / lo <= WIDTH_STEP:
+            continue
+        levels = lo * WIDTH_STEP ** np.arange(1, int(np.log(hi / lo) / np.log(WIDTH_STEP)) + 1)
+        extra.extend(a + (c - a) * (levels[levels < hi] - ba) / (bc - ba))
+    return np.asarray(extra, float)
+
+
 class RodGalerkin:
     """The planar inextensible rod on ``elements`` x ``degree`` angle unknowns.
 
@@ -100,8 +120,9 @@ class RodGalerkin:
         self.stations = np.asarray(stations, float)
         self.profile = np.asarray(profile, float)
         self.degree = p = int(degree)
-        self.edges = edges = element_edges(np.concatenate([self.stations, np.asarray(breaks, float)]),
-                                           elements)
+        self.edges = edges = element_edges(
+            np.concatenate([self.stations, _width_grading(self.stations, self.profile),
+                            np.asarray(breaks, float)]), elements)
         E = edges.size - 1
         Q = int(quad) if quad else p + 10
         self.E, self.Q = E, Q
