@@ -1,6 +1,7 @@
 """The geometrically exact rod truth (prbdm.truth.rod) against independent references:
 the elastica's closed form (Bisshopp & Drucker 1945), the analytic and Euler-Bernoulli beam truths
 at rest, its own convergence, and (slow, optional) PyElastica's Cosserat rod."""
+import json
 import math
 
 import numpy as np
@@ -229,3 +230,24 @@ def test_a_jagged_planform_is_resolved_at_rest():
     rod = rod_frequencies(beam, modes=4, degree=4).omega
     fem = bending_frequencies(beam, "beam", modes=4, elements=400).omega
     np.testing.assert_allclose(rod, fem, rtol=1e-5)
+
+
+def test_the_truth_command_gives_the_rod_at_rest_bent_and_loaded(run, beam_file):
+    path = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.005})
+    rc, out, err = run("truth", path, "--model", "rod", "--modes", 4, "--json")
+    assert rc == 0, err
+    rod = json.loads(out)
+    rc, out, err = run("truth", path, "--model", "beam", "--modes", 4, "--json")
+    np.testing.assert_allclose(rod["omega"], json.loads(out)["omega"], rtol=1e-5)
+    rc, out, err = run("truth", path, "--model", "rod", "--modes", 4, "--tip-angle", 1.0,
+                       "--json")
+    loaded = json.loads(out)
+    assert rc == 0 and loaded["about"] == "equilibrium"
+    assert loaded["omega"][0] > 1.2 * rod["omega"][0]      # the tip force stiffens mode 1
+    rc, out, err = run("truth", path, "--model", "rod", "--modes", 4, "--arc", 1.4, "--json")
+    assert rc == 0 and json.loads(out)["about"] == "stress-free"
+    for argv, words in ((["--tip-angle", 1.0], "--model rod only"),
+                        (["--model", "rod", "--tip-angle", 1, "--arc", 1], "give one"),
+                        (["--model", "rod", "--tip-angle", 9], "tip_angle")):
+        rc, out, err = run("truth", path, *argv)
+        assert rc == 2 and words in err and len(err.strip().splitlines()) == 1

@@ -17,14 +17,22 @@ from ._common import add_beam_argument, positive_int, print_json, read_beam, req
 
 def add_arguments(parser):
     add_beam_argument(parser)
-    parser.add_argument("--model", choices=("auto", "analytic", "beam", "plate", "mindlin"),
+    parser.add_argument("--model", choices=("auto", "analytic", "beam", "plate", "mindlin",
+                                            "rod"),
                         default="auto",
                         help="auto (default: the truth `prbdm fit` takes for this panel, with "
                              "its reason: the beam for a strip up to 0.05 L wide, the Kirchhoff "
                              "or, thick or necked, the Mindlin plate beyond), analytic (uniform "
                              "beams), beam (Euler-Bernoulli FEM), plate (Kirchhoff plate FEM) or "
                              "mindlin (Reissner-Mindlin plate FEM: with transverse shear and "
-                             "rotary inertia)")
+                             "rotary inertia), or rod (the geometrically exact strip: at rest, "
+                             "bent by a tip force to --tip-angle, or bent stress-free into an "
+                             "--arc; docs/large-deflection.md)")
+    parser.add_argument("--tip-angle", type=float, default=None, metavar="RAD",
+                        help="rod: about the equilibrium under a perpendicular tip force that "
+                             "turns the tip by RAD (the load's geometric stiffness included)")
+    parser.add_argument("--arc", type=float, default=None, metavar="RAD",
+                        help="rod: about a stress-free circular arc whose tip turns by RAD")
     parser.add_argument("--modes", type=positive_int(1), default=5, metavar="R",
                         help="number of bending modes (default 5)")
     parser.add_argument("--all-modes", action="store_true",
@@ -46,6 +54,8 @@ def run(args) -> int:
     from ..truth import bending_frequencies
     from ..truth.choice import beam_gap_warning, choose_truth
 
+    if args.model == "rod" or args.tip_angle is not None or args.arc is not None:
+        return _rod(args)
     beam, info = read_beam(args, "truth", model=None if args.model == "auto" else args.model)
     args.model, reason = choose_truth(beam, args.model)
     options = {}
@@ -77,6 +87,43 @@ def run(args) -> int:
     print(_report(beam, res, args.all_modes))
     if args.plot is not None:
         print(f"plot written to {args.plot}")
+    return 0
+
+
+def _rod(args) -> int:
+    """``--model rod``: the strip's frequencies at rest, about a loaded equilibrium or about a
+    stress-free arc (prbdm.truth.rod)."""
+    import math
+
+    if args.model != "rod":
+        raise BadInput("--tip-angle, --arc: apply to --model rod only")
+    if args.tip_angle is not None and args.arc is not None:
+        raise BadInput("--tip-angle, --arc: give one (a loaded or a stress-free bent strip)")
+    for flag in ("all_modes", "selection", "plot", "elements"):
+        if getattr(args, flag) not in (None, False):
+            raise BadInput(f"--{flag.replace('_', '-')}: does not apply to --model rod")
+    from ..truth.rod import arc_shape, rod_frequencies, rod_static
+
+    beam, info = read_beam(args, "truth", model="beam")
+    about, what = None, "at rest (straight, unloaded)"
+    if args.tip_angle is not None:
+        about = rod_static(beam, tip_angle=args.tip_angle)
+        what = (f"held by a perpendicular tip force of {about.force[1]:.6g} N at a tip angle of "
+                f"{about.tip_angle:.6g} rad")
+    elif args.arc is not None:
+        about = arc_shape(beam, args.arc)
+        what = f"bent stress-free into an arc with a tip angle of {args.arc:g} rad"
+    res = rod_frequencies(beam, about=about, modes=args.modes)
+    out = {**res.to_dict(), "reason": f"--model rod as asked: {what}", "input": info,
+           "warnings": []}
+    if args.json:
+        print_json(out)
+        return 0
+    print(f"truth: rod, {what}")
+    rows = [[j + 1, f"{w:.6g}", f"{w / (2 * math.pi):.6g}"] for j, w in enumerate(res.omega)]
+    print(table(rows, ["mode", "omega [rad/s]", "f [Hz]"]))
+    print(f"({res.mesh['elements']} elements of degree {res.mesh['degree']}, "
+          f"{1e3 * res.time_s:.1f} ms)")
     return 0
 
 
