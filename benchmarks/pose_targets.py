@@ -37,8 +37,8 @@ import torch  # noqa: E402
 from prbdm.fit import fit_prbdm  # noqa: E402
 from prbdm.geometry import random_beam  # noqa: E402
 from prbdm.model import eigenvalues, paper_poses  # noqa: E402
-from prbdm.truth import bending_frequencies  # noqa: E402
 from prbdm.pose_target import shape_truths as shape_truth  # noqa: E402
+from prbdm.truth import bending_frequencies  # noqa: E402
 
 
 def one_beam(beam, n, objective="eigenvalue"):

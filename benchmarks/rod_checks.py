@@ -4,7 +4,6 @@ the runtime of each public function.
 
     python benchmarks/rod_checks.py
 """
-import math
 import sys
 import time
 from pathlib import Path
@@ -15,8 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_truth_rod import EI, TABLE2, TAPERED, UNIFORM, bisshopp_drucker  # noqa: E402
 
 from prbdm.truth import bending_frequencies  # noqa: E402
-from prbdm.truth.rod import (arc_shape, chain_shape, rod_frequencies, rod_response,  # noqa: E402
-                             rod_static)
+from prbdm.truth.rod import arc_shape, chain_shape, rod_frequencies, rod_response, rod_static  # noqa: E402
 
 print("1. elastica, perpendicular tip load (Bisshopp & Drucker), uniform strip, "
       "|rod - closed form|:")

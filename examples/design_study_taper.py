@@ -27,7 +27,6 @@ from prbdm.fit import fit_many, fit_prbdm
 from prbdm.truth import bending_frequencies
 
 
-
 def main(argv=None) -> dict:
     """Run the study (``argv``: the command-line flags); returns its numbers (what the test
     checks, tests/test_examples.py)."""

@@ -7,7 +7,7 @@ truth (scikit-fem bending frequencies), fit (multistart optimisation), cli (the 
 Importing ``prbdm`` imports neither torch nor scikit-fem: each command pulls in only what it needs.
 """
 from .errors import BadInput
-from .geometry import Beam, Material, STEEL, load_beam, random_beam
+from .geometry import STEEL, Beam, Material, load_beam, random_beam
 
 __version__ = "0.1.0"
 __all__ = ["BadInput", "Beam", "Material", "STEEL", "load_beam", "random_beam", "__version__"]

@@ -37,8 +37,15 @@ import numpy as np
 import torch
 
 from .errors import BadInput
-from .model import (BeamTensors, Links, as_beam_tensors, base_stiffness, links_from_gamma,
-                    make_poses, mass_matrix)
+from .model import (
+    BeamTensors,
+    Links,
+    as_beam_tensors,
+    base_stiffness,
+    links_from_gamma,
+    make_poses,
+    mass_matrix,
+)
 
 __all__ = ["ClassicalPRBM", "HOWELL_1R", "SU_3R", "CLASSICAL", "EI_CHOICES", "joint_ei",
            "joint_stiffness", "beam_law_scf", "eigenvalues", "tip_compliance",

@@ -22,7 +22,8 @@ Conventions (docs/export.md has the full list):
 - Inertia: each link is a thin lamina in its x-y plane. About the centre of mass, in body axes:
   ``I_yy = J_j`` (exactly the PRBDM's rotary inertia: bending plane, docs/conventions.md §3),
   ``I_xx = ∫ y^2 dm`` (rolling about the link axis; ``rho t ∫ (2/3) w^3 dx``),
-  ``I_zz = I_xx + I_yy`` (perpendicular axis theorem). The section's own ``m t^2 / 12`` is dropped on every axis, as the PRBDM drops
+  ``I_zz = I_xx + I_yy`` (perpendicular axis theorem). The section's own ``m t^2 / 12`` is
+  dropped on every axis, as the PRBDM drops
   it from J. Products of inertia vanish (symmetry about x; lamina in z = 0).
 - Damping (optional): a damping ratio ``zeta`` becomes stiffness-proportional joint damping
   ``d_j = (2 zeta / omega_1) K_j``: ratio ``zeta`` on the first mode, ``zeta omega_r / omega_1``

@@ -42,14 +42,25 @@ import torch
 
 from . import objectives
 from .errors import BadInput
-from .model import (GAMMA_MAX, GAMMA_MIN, LAWS, BeamTensors, as_beam_tensors, eigenvalues_unit_k,
-                    frequency_errors, loss_percent, make_poses, uniform_gamma)
+from .model import (
+    GAMMA_MAX,
+    GAMMA_MIN,
+    LAWS,
+    BeamTensors,
+    as_beam_tensors,
+    eigenvalues_unit_k,
+    frequency_errors,
+    loss_percent,
+    make_poses,
+    uniform_gamma,
+)
 
 __all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDIDATES",
            "REFINE_ITER", "gamma_from_z",
            "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS", "StopRules"]
 
 from .constants import DEFAULT_STARTS, REFINE_CANDIDATES, REFINE_ITER  # noqa: E402
+
 #: smallest |z_j| of a start given by ``init_gamma`` (see :func:`fit_many`)
 INIT_Z_FLOOR = 0.02
 

@@ -206,8 +206,8 @@ class Beam:
         The polygon must be valid (not self-intersecting) and its upper boundary must be a
         function of x (one half-width per station).
         """
-        from shapely.geometry import Polygon  # shapely only when polygons are used
         from shapely import affinity
+        from shapely.geometry import Polygon  # shapely only when polygons are used
 
         if not isinstance(polygon, Polygon):
             raise BadInput("polygon: must be a shapely Polygon")

@@ -24,7 +24,8 @@ to about ``eps * lam_i / lam_1``: mode 1 to round-off, the highest mode to ``eps
 ``cond = lam_max / lam_min``. In float64 that is harmless (cond <= ~1e8 for n <= 39); in float32
 (eps 1.2e-7) the highest mode of a 4R model is already a few % off. So every solve checks, on the
 detached result and with one reduction: a short float type (float32, float16, bfloat16) with
-``PRECISION_FACTOR * eps * cond > PRECISION_RTOL`` (4 eps cond > 1e-3), or any eigenvalue not finite or not positive (any dtype), raises
+``PRECISION_FACTOR * eps * cond > PRECISION_RTOL`` (4 eps cond > 1e-3), or any eigenvalue not
+finite or not positive (any dtype), raises
 a :class:`PrecisionWarning` naming the dtype and the condition estimate. Autograd and batching
 are untouched (the check only reads the values).
 """
@@ -48,6 +49,7 @@ __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stif
            "PrecisionWarning", "PRECISION_RTOL", "PRECISION_FACTOR"]
 
 from .constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402  (Eq. 13 bounds on each gamma_j)
+
 LAWS = ("beam", "paper")
 #: a short float type warns when its estimated relative error of the highest eigenvalue,
 #: PRECISION_FACTOR * eps * lam_max / lam_min, exceeds PRECISION_RTOL. The factor is measured:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import torch
 
 from .constants import OBJECTIVES  # noqa: E402
+
 #: the p of the frequency objective's p-norm over modes. Measured on 12 held-out beams (n = 4,
 #: 4 modes, paper poses, 64 starts): median worst-mode error 4.72 % (p = 4), 4.57 (8), 4.56 (16),
 #: 4.53 (32); 16 overestimates the maximum of 4 modes by at most 9 %

@@ -44,8 +44,13 @@ import numpy as np
 
 from .errors import BadInput
 from .preflight import DEFAULT_TOLERANCE
-from .signals import (CROSSING_FLOOR, damped_frequency, decaying_window, dominant_frequency,
-                      zero_crossing_period)
+from .signals import (
+    CROSSING_FLOOR,
+    damped_frequency,
+    decaying_window,
+    dominant_frequency,
+    zero_crossing_period,
+)
 
 __all__ = ["ChainDynamics", "beam_modes", "BeamModes", "modal_tip_response", "simulate",
            "SimulationResult", "dominant_frequency", "zero_crossing_period", "plot_simulation"]

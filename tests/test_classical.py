@@ -6,7 +6,7 @@ import pytest
 import scipy.linalg
 from scipy.integrate import quad
 
-from prbdm import Beam, BadInput, random_beam
+from prbdm import BadInput, Beam, random_beam
 from prbdm import classical as cl
 
 # cantilever eigenvalue roots of cos a cosh a = -1 (Euler-Bernoulli), a_n^2

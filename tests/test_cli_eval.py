@@ -11,10 +11,10 @@ import sys
 import numpy as np
 import pytest
 import torch
+from test_geometry import BAD_BEAMS, BAD_FILES
 
 from prbdm import Beam, model
 from prbdm.cli import main
-from test_geometry import BAD_BEAMS, BAD_FILES
 
 PAPER_3R = "0.7447,0.0466,0.0725,0.1362"
 UNIFORM = {"name": "paper uniform beam", "x": [0.0, 1.0], "half_width": [0.1812, 0.1812],

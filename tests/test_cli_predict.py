@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_surrogate import SHIPPED, tiny_checkpoint
 
 from prbdm import cli
 from prbdm.geometry import random_beam
-from test_surrogate import SHIPPED, tiny_checkpoint
 
 COMMANDS = {"predict": ("prbdm.commands.predict", "PRBDM from the trained surrogate (no FEM)"),
             "compare": ("prbdm.commands.compare", "truth vs surrogate vs fit vs refined fit")}
@@ -414,8 +414,9 @@ def test_predict_output_exports(capsys, beam_file, tmp_path, tiny_set):
         np.testing.assert_allclose([b["mass"] for b in desc["bodies"][1:]], p["links"]["mass"],
                                    rtol=1e-10)
     try:
-        from prbdm.export import mujoco_linear_frequencies
         import mujoco  # noqa: F401
+
+        from prbdm.export import mujoco_linear_frequencies
     except ImportError:
         pass
     else:

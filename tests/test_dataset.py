@@ -663,6 +663,7 @@ def test_old_set_keeps_its_columns_and_objective(tmp_path, capsys):
 
 def test_refused_by_truth_flags_records_todays_truth_refuses():
     import pandas as pd
+
     from prbdm.dataset import make_spec, refused_by_truth
     rows = pd.DataFrame({"x": [[0, 0.5, 1], [0, 0.9984, 1]],
                          "half_width": [[0.3, 0.2, 0.1], [0.2, 0.1119, 0.492]],

@@ -11,10 +11,9 @@ import torch
 from scipy.integrate import quad
 
 from prbdm.errors import BadInput
-from prbdm.export import (URDF_NS, plate_integrals, prbdm_from_fit, to_json, to_mjcf, to_urdf)
+from prbdm.export import URDF_NS, plate_integrals, prbdm_from_fit, to_json, to_mjcf, to_urdf
 from prbdm.geometry import Beam
-from prbdm.model import (BeamTensors, base_stiffness, eigenvalues, links_from_gamma,
-                         make_poses)
+from prbdm.model import BeamTensors, base_stiffness, eigenvalues, links_from_gamma, make_poses
 
 TAPERED = Beam(x=[0.0, 0.35, 1.2], half_width=[0.18, 0.12, 0.05], thickness=0.02,
                name="tapered")

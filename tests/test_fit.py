@@ -12,13 +12,19 @@ from scipy.optimize import minimize_scalar
 
 from prbdm.cli import main
 from prbdm.errors import BadInput
-from prbdm.fit import (LONG_ROOT_RANGE, fit_many, fit_prbdm, gamma_from_z, long_root_gamma,
-                       refine_starts, start_points,
-                       z_from_gamma)
+from prbdm.fit import (
+    LONG_ROOT_RANGE,
+    fit_many,
+    fit_prbdm,
+    gamma_from_z,
+    long_root_gamma,
+    refine_starts,
+    start_points,
+    z_from_gamma,
+)
 from prbdm.geometry import Beam, random_beam
+from prbdm.model import GAMMA_MAX, GAMMA_MIN, eigenvalues, loss_percent, make_poses, uniform_gamma
 from prbdm.truth import bending_frequencies
-from prbdm.model import (GAMMA_MAX, GAMMA_MIN, eigenvalues, loss_percent, make_poses,
-                         uniform_gamma)
 
 # Table 2 of the paper: the uniform test beam; its analytic frequencies (Eqs. 18-20)
 UNIFORM = Beam(x=[0.0, 1.0], half_width=[0.1812, 0.1812], thickness=0.040532)

@@ -20,6 +20,7 @@ from prbdm import model
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 
+
 @pytest.fixture(autouse=True)
 def _float64():
     """float64 for every tensor made in these tests, restored afterwards (no leak elsewhere)."""

@@ -1,11 +1,11 @@
 """The wheel carries every subpackage and the shipped checkpoints (pyproject.toml lists them)."""
-import tomllib
-import zipfile
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
+import tomllib
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,6 +11,7 @@ from shapely.geometry import box
 from prbdm.geometry import Beam, random_beam
 from prbdm.sections import span_integrals
 
+
 @pytest.fixture(autouse=True)
 def _float64():
     """float64 for every tensor made in these tests, restored afterwards (no leak elsewhere)."""
@@ -180,8 +181,8 @@ def test_stations_on_and_next_to_every_cut_give_finite_exact_links():
     """A station that falls on a cut of the joints' tributary spans, or a hair beside one, must
     not matter: the links and compliances stay finite and agree with the NumPy twin, which
     integrates by cumulative sums (another construction), for many joint layouts."""
-    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
     from prbdm.geometry import Beam
+    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
     from prbdm.surrogate import numpy_model as nm
 
     rng = np.random.default_rng(35)
@@ -235,8 +236,8 @@ def test_stations_on_and_next_to_every_cut_give_finite_exact_links():
 def test_a_station_on_a_cut_is_the_limit_of_stations_beside_it():
     """Continuity across the cut: moving the station by 1e-12 moves the compliance by about as
     much (it used to be NaN exactly on the cut)."""
-    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
     from prbdm.geometry import Beam
+    from prbdm.model import BeamTensors, links_from_gamma, uniform_gamma
 
     vals = []
     for s in (0.75 - 1e-12, 0.75, 0.75 + 1e-12):

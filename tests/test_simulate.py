@@ -14,8 +14,14 @@ from prbdm.errors import BadInput
 from prbdm.export import prbdm_from_fit, run_fit
 from prbdm.geometry import Beam
 from prbdm.model import BeamTensors, links_from_gamma, mass_matrix
-from prbdm.simulate import (ChainDynamics, beam_modes, dominant_frequency, modal_tip_response,
-                            simulate, zero_crossing_period)
+from prbdm.simulate import (
+    ChainDynamics,
+    beam_modes,
+    dominant_frequency,
+    modal_tip_response,
+    simulate,
+    zero_crossing_period,
+)
 
 TAPERED = Beam(x=[0.0, 0.35, 1.2], half_width=[0.18, 0.12, 0.05], thickness=0.02,
                name="tapered")

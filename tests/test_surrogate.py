@@ -22,11 +22,11 @@ import torch
 from prbdm import dataset as D
 from prbdm import model
 from prbdm import surrogate as sg
+from prbdm.errors import BadInput
+from prbdm.geometry import Beam, Material, random_beam
 from prbdm.surrogate import numpy_model as nm
 from prbdm.surrogate import prediction as sp
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
-from prbdm.errors import BadInput
-from prbdm.geometry import Beam, Material, random_beam
 
 REPO = Path(__file__).resolve().parents[1]
 TRAIN = REPO / "training" / "train_surrogate.py"
@@ -352,7 +352,7 @@ def test_training_log_and_comparison_recorded(tiny_set):
     log = tiny_checkpoint(tiny_set).with_suffix(".log").read_text()
     assert "selected mode:" in log and "test (" in log
     meta = json.loads(tiny_checkpoint(tiny_set).with_suffix(".json").read_text())
-    for mode, res in meta["training"]["comparison"].items():
+    for res in meta["training"]["comparison"].values():
         assert {"loss_mean", "loss_median", "loss_p95", "freq_err_median"} <= set(res["val"])
         assert res["epochs"] <= 4
 

@@ -10,6 +10,7 @@ from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.truth import bending_frequencies
 from prbdm.truth.analytic import cantilever_roots
+
 # the mesh-free reference: shooting on (b w'')'' = lambda b w with scipy's solve_ivp (DOP853)
 from prbdm.truth.shooting import shooting_eigenvalues
 
@@ -126,8 +127,12 @@ def test_beams_outside_thin_beam_theory_are_refused(model, beam, field, needle):
 
 
 def test_limits_of_thin_theory_refuse_no_random_beam():
-    from prbdm.truth import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,
-                             MAX_THICKNESS_RATIO, check_beam)
+    from prbdm.truth import (
+        MAX_BEAM_WIDTH_RATIO,
+        MAX_PLATE_THICKNESS_RATIO,
+        MAX_THICKNESS_RATIO,
+        check_beam,
+    )
     for i in range(3000):
         b = random_beam(0, i)
         check_beam(b, "beam")

@@ -165,6 +165,7 @@ def _perturbed_mesh(rng):
 
 def test_local_elements_equal_scikit_fem_elements_on_a_benign_mesh():
     from skfem import Basis, ElementLineHermite, ElementTriArgyris, MeshLine
+
     from prbdm.truth._argyris import LocalArgyris
     from prbdm.truth._hermite import LocalHermite
     from prbdm.truth.beam import mass as beam_mass
@@ -191,6 +192,7 @@ def test_batched_argyris_space_equals_scikit_fem_assembly():
     relative) and with scikit-fem's ElementTriArgyris (9e-12, its global-monomial basis), on a
     perturbed benign mesh: stiffness, mass, load, DOF numbering, fields at the points."""
     from skfem import Basis, ElementTriArgyris
+
     from prbdm.truth._argyris import ArgyrisSpace, LocalArgyris
     from prbdm.truth.plate import bending, load, mass
 
@@ -230,6 +232,7 @@ def test_shift_invert_lanczos_against_dense_eigh():
     import scipy.linalg
     import scipy.sparse as sp
     from scipy.sparse.linalg import splu
+
     from prbdm.truth._linalg import ShiftInvertLanczos
 
     n = 300

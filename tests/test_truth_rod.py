@@ -12,8 +12,16 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material
 from prbdm.truth import bending_frequencies
-from prbdm.truth.rod import (MAX_LOAD, RestShape, arc_shape, chain_shape, rod_frequencies,
-                             rod_response, rod_static, sampled_shape)
+from prbdm.truth.rod import (
+    MAX_LOAD,
+    RestShape,
+    arc_shape,
+    chain_shape,
+    rod_frequencies,
+    rod_response,
+    rod_static,
+    sampled_shape,
+)
 
 UNIFORM = Beam(x=[0.0, 1.0], half_width=[0.02, 0.02], thickness=0.005)
 TAPERED = Beam(x=[0.0, 0.35, 1.0], half_width=[0.05, 0.03, 0.01], thickness=0.004)
@@ -158,6 +166,7 @@ def _linear_first_crossing_period(beam, elements=6, degree=4):
     its linear static tip-load deflection; the time between the first two downward crossings
     of the tip through z = 0 (the higher modes move it away from 2 pi / omega_1)."""
     from scipy.linalg import eigh
+
     from prbdm.truth.rod import _model, _scaled
     sc = _scaled(beam)
     m = _model(sc, None, False, elements, degree)

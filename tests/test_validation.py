@@ -7,18 +7,27 @@ from __future__ import annotations
 import json
 import re
 import sys
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from prbdm import geometry
 from prbdm.commands import _common
 from prbdm.errors import BadInput
-from prbdm.geometry import (HARD_LIMITS, MAX_THICKNESS_RATIO, MAX_WIDTH_RATIO, SIMPLIFY_ABOVE,
-                            SIMPLIFY_RTOL, Beam, check_beam, random_beam, simplify_planform,
-                            unit_warnings)
+from prbdm.geometry import (
+    HARD_LIMITS,
+    MAX_THICKNESS_RATIO,
+    MAX_WIDTH_RATIO,
+    SIMPLIFY_ABOVE,
+    SIMPLIFY_RTOL,
+    Beam,
+    check_beam,
+    random_beam,
+    simplify_planform,
+    unit_warnings,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 TAPER = {"x": [0.0, 0.35, 1.0], "half_width": [0.18, 0.12, 0.05], "thickness": 0.03}

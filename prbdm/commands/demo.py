@@ -28,7 +28,6 @@ def add_arguments(parser):
 def run(args) -> int:
     from ..geometry import Beam
     from ..truth import bending_frequencies
-
     from ..truth.choice import choose_truth
 
     beam = Beam.from_dict(DEMO_BEAM)

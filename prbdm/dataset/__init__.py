@@ -28,11 +28,30 @@ from __future__ import annotations
 
 from .label import chunks, fit_seed, label_beam, label_beams, label_chunk
 from .run import Progress, generate
-from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, DEFAULT_STARTS, FORMAT,
-                     FORMAT_VERSION, MANIFEST, OBJECTIVES, beam_for, make_spec, refused_by_truth,
-                     spec_difference)
-from .storage import (FolderLock, existing_indices, git_commit, info, part_files, read_manifest,
-                      read_table, versions)
+from .schema import (
+                     COLUMNS,
+                     DEFAULT_FIT_BATCH,
+                     DEFAULT_OBJECTIVE,
+                     DEFAULT_STARTS,
+                     FORMAT,
+                     FORMAT_VERSION,
+                     MANIFEST,
+                     OBJECTIVES,
+                     beam_for,
+                     make_spec,
+                     refused_by_truth,
+                     spec_difference,
+)
+from .storage import (
+                     FolderLock,
+                     existing_indices,
+                     git_commit,
+                     info,
+                     part_files,
+                     read_manifest,
+                     read_table,
+                     versions,
+)
 
 # the names other modules of the project used before the package existed
 _git_commit, _versions = git_commit, versions

@@ -18,9 +18,21 @@ import numpy as np
 
 from .. import __version__, files
 from ..errors import BadInput
-from .schema import (COLUMNS, DEFAULT_FIT_BATCH, DEFAULT_OBJECTIVE, DEFAULT_TARGET, FLAGS,
-                     FORMAT, FORMAT_VERSION, MANIFEST, OLD_TARGET, arrow_schema, flatten,
-                     manifest_columns, spec_difference)
+from .schema import (
+    COLUMNS,
+    DEFAULT_FIT_BATCH,
+    DEFAULT_OBJECTIVE,
+    DEFAULT_TARGET,
+    FLAGS,
+    FORMAT,
+    FORMAT_VERSION,
+    MANIFEST,
+    OLD_TARGET,
+    arrow_schema,
+    flatten,
+    manifest_columns,
+    spec_difference,
+)
 
 
 def read_manifest(out) -> dict:

@@ -30,11 +30,18 @@ import time
 import numpy as np
 
 from ..errors import BadInput
-from ..geometry import Beam  # noqa: F401
+
 # the beam limits (thin theory, width ratio, the plate's own) have their one home in
 # prbdm.geometry, shared with every command; re-exported here under their old names
-from ..geometry import (MAX_BEAM_WIDTH_RATIO, MAX_PLATE_THICKNESS_RATIO,  # noqa: F401
-                        MAX_PLATE_WIDTH_RATIO, MAX_THICKNESS_RATIO, MAX_WIDTH_RATIO, check_beam)
+from ..geometry import (  # noqa: F401
+    MAX_BEAM_WIDTH_RATIO,
+    MAX_PLATE_THICKNESS_RATIO,
+    MAX_PLATE_WIDTH_RATIO,
+    MAX_THICKNESS_RATIO,
+    MAX_WIDTH_RATIO,
+    Beam,  # noqa: F401
+    check_beam,
+)
 from .result import TruthResult, check_frequencies
 
 __all__ = ["bending_frequencies", "modes_for_fit", "TruthResult", "MODELS", "MAX_MODES"]

@@ -33,7 +33,6 @@ from __future__ import annotations
 from math import factorial
 
 import numpy as np
-
 import scipy.sparse as sp
 from skfem import ElementTriArgyris
 from skfem.assembly import Dofs

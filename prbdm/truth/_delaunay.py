@@ -11,7 +11,8 @@ interior is meshed freely:
    clamped-free corner (``h_c = corner_ratio * h0``), toward re-entrant free-edge corners (both
    singular points of the plate solution; ``h_c`` falls from ``corner_ratio * h0`` at 180 degrees
    to ``corner_ratio^1.5 * h0`` at a crack-like 360-degree notch) and toward short free-edge
-   segments; never below ``H_FLOOR`` (smaller elements only ruin the conditioning); and at most ``across * w(x)`` so that narrow
+   segments; never below ``H_FLOOR`` (smaller elements only ruin the conditioning); and at most
+   ``across * w(x)`` so that narrow
    parts get elements across their width;
 2. points: the boundary walked at the local size, and quadtree-like lattices (spacing ``h0 / 2^l``)
    inside, each lattice point kept where the local size asks for that level and away from the

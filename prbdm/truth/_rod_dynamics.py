@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.polynomial import legendre as npleg
-from scipy.linalg import lu_factor as _lu_factor, lu_solve as _lu_solve
+from scipy.linalg import lu_factor as _lu_factor
+from scipy.linalg import lu_solve as _lu_solve
 
 __all__ = ["RodGalerkin", "element_edges"]
 

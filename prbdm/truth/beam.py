@@ -31,12 +31,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
-
-from ._hermite import LocalHermite
-from ._linalg import refined_inverse
 from skfem import Basis, BilinearForm, LinearForm, MeshLine
 from skfem.helpers import dd, ddot
 
+from ._hermite import LocalHermite
+from ._linalg import refined_inverse
 from ._mesh import span_nodes
 
 __all__ = ["stiffness", "mass", "load", "beam_nodes", "solve_beam", "DEFAULT_KAPPA"]

@@ -51,8 +51,8 @@ from skfem.helpers import dd, ddot, trace
 
 from ._argyris import ArgyrisSpace
 from ._delaunay import half_planform_mesh
-from ._mapped import is_benign, mapped_half_mesh
 from ._linalg import ShiftInvertLanczos, grown, refined_inverse
+from ._mapped import is_benign, mapped_half_mesh
 from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 
 __all__ = ["bending", "mass", "load", "plate_mesh", "solve_plate", "plate_omega_scale",
@@ -241,7 +241,7 @@ def solve_plate(beam, modes: int, all_modes: bool = False, elements: int | None 
         raise ValueError(f"found only {len(kept_idx)} bending modes among the first "
                          f"{len(lam_s)} symmetric modes")
     entries = []
-    for name, (lam, phi, part, frac, kept) in found.items():
+    for name, (lam, _phi, part, frac, kept) in found.items():
         for i in range(len(lam)):
             entries.append({"lambda": float(lam[i]), "participation": float(part[i]),
                             "section_fraction": float(frac[i]), "symmetry": name,

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -513,7 +513,6 @@ class RodResponse:
 def _march(model: RodGalerkin, q, v, h, periods, sign, max_steps):
     """Implicit-midpoint steps of ``h`` until ``periods + 1`` downward crossings of the tip
     through z = 0 (located on the cubic Hermite interpolant of z and zdot over the step)."""
-    n = model.n
     t, ts, Qs, Vs, crossings = 0.0, [0.0], [q], [v], []
     z = model.positions(q)[1][1]
     zd = (model.tip_velocity(q, v))[1]
