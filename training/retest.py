@@ -55,6 +55,9 @@ path = Path(cfg["checkpoint"])
 try:
     weights, meta = read_checkpoint(path)
     sur = sg.Surrogate(weights, meta, path)         # load_checkpoint, without reading it again
+    # the candidate rule the recorded test was measured with (checkpoints before the rule
+    # existed chose by the loss alone)
+    sur.candidate_rule = meta.get("network", {}).get("candidate_rule", "loss")
 except BadInput as exc:
     _fail(str(exc))
 recorded = meta.get("test")

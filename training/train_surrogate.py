@@ -643,6 +643,8 @@ meta = {
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,
                 "select_poses": sg.gauss_select_poses(m),
+                # the candidate rule predict answers with, and this test is measured with
+                "candidate_rule": "plausible",
                 "parameters": int(sum(p.numel() for p in net.parameters())),
                 "outputs": "see prbdm.surrogate.decode_numpy"},
     "dataset": {"path": _cli.portable_path(data), "spec": spec, "size": N,

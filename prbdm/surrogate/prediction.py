@@ -173,6 +173,12 @@ class Surrogate:
             self.n_members = int(net.get("members", 1))
             self.hypotheses = self.member_hypotheses * self.n_members   # candidates in all
             self.select_poses = [int(i) for i in net.get("select_poses", SELECT_POSES)]
+            #: how a candidate is chosen: "plausible" (the least loss among the candidates with
+            #: every mode within SELF_CHECK_IMPLAUSIBLE of the predicted truth; what answers) or
+            #: "loss" (the least loss: the rule the shipped checkpoints' held-out tests were
+            #: measured with, their ``network.candidate_rule`` when absent; training/retest.py
+            #: measures with the checkpoint's own)
+            self.candidate_rule = "plausible"
             self.f_min = np.asarray(metadata["features"]["min"], dtype=np.float64)
             self.f_max = np.asarray(metadata["features"]["max"], dtype=np.float64)
             self.names = list(metadata["features"]["names"])
@@ -335,7 +341,8 @@ class Surrogate:
         rfe = feats[:, self.feature_spec.base_columns(len(self.norm["freq_mean"]))]
         x, w = (batch.x, batch.w) if batch is not None else (None, None)
         return decode_numpy(out, self.norm, self.joints, self.k_mode, rfe, x, w, self.poses,
-                            self.modes, self.hypotheses, self.select_poses)
+                            self.modes, self.hypotheses, self.select_poses,
+                            plausible=self.candidate_rule == "plausible")
 
     def check_range(self, feats: np.ndarray):
         """(B, F) bool out-of-range mask and the warning texts (at most ``20``)."""
