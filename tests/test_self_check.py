@@ -44,18 +44,19 @@ def test_fit_checks_itself_against_the_truth_it_used(run, beam_file):
 
 
 def test_a_network_answer_that_misses_its_own_truth_is_not_given(run, beam_file):
-    """plate-n4 answered this thin uniform plate with gamma 0.89 clamped and mode 1 75 % below
-    its own predicted truth, exit 0, no warning. Now that answer is refused and the next network
-    answers, saying why; whatever answers passes its own check within the refusal limit."""
+    """plate-n4 answered this thin uniform plate with gamma 0.89 clamped, SCF 3.3e-4 and mode 1
+    75 % below its own predicted truth, exit 0, no warning: its candidate of least loss. Now the
+    physics takes its plausible candidate, which passes its self-check; and an answer with no
+    plausible candidate (a panel 1.4 L wide, outside its range) is refused, one line, exit 2."""
     rc, out, err = run("predict", beam_file(THIN_STRIP_PLATE), "--joints", 4, "--json")
     assert rc == 0, err
     d = json.loads(out)
-    assert not d["self_check"]["implausible"]
-    assert d["self_check"]["max_error"] < 0.5
-    assert "plate-n4" in " ".join(d["warnings"]) and "below the truth" in " ".join(d["warnings"])
-    # asked for by name, the network's broken answer is an error: exit 1, one line, no number
-    rc, out, err = run("predict", beam_file(THIN_STRIP_PLATE), "--joints", 4, "--truth", "plate")
-    assert rc == 1 and out == "" and len(err.strip().splitlines()) == 1
+    assert d["checkpoint"]["name"] == "plate-n4.safetensors"
+    assert not d["self_check"]["implausible"] and d["self_check"]["ok"]
+    assert d["gamma"][0] < 0.5 and min(d["k"]) > 0.1
+    wide = beam_file({"x": [0.0, 0.5, 1.0], "half_width": [0.7, 0.6, 0.5], "thickness": 0.02})
+    rc, out, err = run("predict", wide, "--joints", 4, "--truth", "plate")
+    assert rc == 2 and out == "" and len(err.strip().splitlines()) == 1
     assert "mode 1" in err and "prbdm fit" in err
 
 
