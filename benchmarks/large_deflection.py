@@ -1,0 +1,643 @@
+"""Large-deflection accuracy of rigid-link chains against the geometrically exact rod (issue 37
+item 3; docs/large-deflection-accuracy.md).
+
+Every method is a planar chain of rigid links cut from the beam (link masses, centres and
+rotary inertias the exact integrals of the planform, :func:`prbdm.model.links_from_gamma`) with
+torsional springs at the joints; the truth is :mod:`prbdm.truth.rod` (the inextensible,
+unshearable Euler-Bernoulli rod, exact kinematics). The panels are treated as strips (1-D).
+
+Methods:
+
+- ``howell-1r``, ``su-3r``: :mod:`prbdm.classical` (``ei="tip"``), constant springs.
+- ``rfe-4`` (and ``rfe-20``, a convergence reference): equal links
+  :func:`prbdm.model.uniform_gamma`, the ``beam`` stiffness law, SCF 1.
+- ``fit-paper``: :func:`prbdm.fit.fit_prbdm` (4 joints, paper poses, one SCF per pose, matched
+  to the straight beam's ``beam`` truth), with the *energy-consistent* spring law below.
+- ``fit-const``: :func:`prbdm.fit.fit_prbdm` with ``poses="linear"`` (one SCF, fitted at rest),
+  constant stiffness at every angle.
+- ``network``: the shipped ``beam-n4`` eigenvalue network's gamma and per-pose SCFs, with the
+  same spring law as ``fit-paper``.
+
+Spring law of the per-pose SCFs (``fit-paper``, ``network``). Joint j has the potential
+
+    V_j(theta) = s_j * int_0^|theta| k(u) u du,   torque  dV_j/dtheta = s_j k(|theta|) theta,
+
+with ``s_j`` the ``beam`` law's base stiffness and ``k(u)`` the pose SCFs interpolated linearly
+in the joint angle ``u`` between the pose angles (0.10 ... 0.35 rad for n = 4) and held constant
+outside them (below the first pose, ``k(0.10)``; above the last, ``k(0.35)``). Each joint's SCF
+follows its own angle; the torque is the gradient of a potential, so the free vibration
+conserves energy (checked: ``energy_drift`` in the JSON).
+
+Tests:
+
+1. Statics: a dead tip force, vertical (perpendicular to the undeformed beam, ``force_angle``
+   90 deg) and at 45 deg to the beam axis (pulling outward and up: the tip then turns towards
+   the force and cannot pass 45 deg, so that path stops at 40 deg). The loads are the rod's
+   loads for tip angles 5, 10, ..., 75 deg (40 deg at 45 deg); each chain is solved at the same
+   load (matched load; minimum of the potential energy, by continuation along the loads).
+   Error: ``|r_tip(chain) - r_tip(rod)| / L``.
+2. Free vibration released from rest in the static shape under a vertical tip force with a tip
+   angle of 10, 30, 60 deg, each model from its own equilibrium at that tip angle (the chain's
+   tip angle is its last link's angle). Period: time between the first two downward crossings
+   of z = 0 by the tip (the rod's definition); errors ``|T / T_rod - 1|`` and the RMS over
+   ``t in [0, 5 T_rod]`` of ``|r_tip(chain, t) - r_tip(rod, t)|`` divided by the rod's initial
+   tip deflection ``z_tip(0)``.
+
+Run:  python benchmarks/large_deflection.py [--quick] [--json FILE] [--plot FILE]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, minimize
+
+from prbdm.classical import HOWELL_1R, SU_3R, joint_stiffness
+from prbdm.geometry import Beam, Material, random_beam
+from prbdm.model import (BeamTensors, base_stiffness, links_from_gamma, paper_poses,
+                         uniform_gamma)
+from prbdm.simulate import ChainDynamics
+from prbdm.truth.rod import rod_response, rod_static
+
+DEG = math.pi / 180.0
+STATIC_ANGLES = {"vertical": (90.0, list(range(5, 80, 5))), "45deg": (45.0, list(range(5, 45, 5)))}
+REPORT_STATIC = {"vertical": (30, 60, 75), "45deg": (15, 30, 40)}
+RELEASE_ANGLES = (10.0, 30.0, 60.0)
+PERIODS = 5
+METHODS = ("howell-1r", "su-3r", "rfe-4", "fit-paper", "fit-const", "network", "rfe-20")
+
+
+def _log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+# ----------------------------------------------------------------------------- beams
+def table2_beam() -> Beam:
+    return Beam(x=np.array([0.0, 1.0]), half_width=np.array([0.3624, 0.3624]) / 2,
+                thickness=0.040532, material=Material(E=205e9, rho=7850.0, nu=0.28),
+                name="Table 2 uniform beam")
+
+
+def tapered_beam() -> Beam:
+    return Beam(x=np.array([0.0, 0.35, 1.0]), half_width=np.array([0.18, 0.12, 0.05]),
+                thickness=0.03, material=Material(E=205e9, rho=7850.0, nu=0.28),
+                name="README tapered panel")
+
+
+def beams(count: int, seed: int = 0) -> list:
+    out = [table2_beam(), tapered_beam()]
+    out += [random_beam(seed, i) for i in range(count)]
+    return out
+
+
+# ----------------------------------------------------------------------------- spring laws
+class LinearSprings:
+    """Constant joint stiffness K (n,) [N m/rad]."""
+
+    def __init__(self, K):
+        self.K = np.asarray(K, float)
+
+    def torque(self, th):
+        return self.K * th
+
+    def dtorque(self, th):
+        return self.K.copy()
+
+    def energy(self, th):
+        return float(0.5 * np.sum(self.K * th * th))
+
+
+class InterpolatedSprings:
+    """Per-joint potential ``V_j = s_j int_0^|theta| k(u) u du``, ``k`` the pose SCFs ``k``
+    piecewise linear in the pose angles ``a`` (ascending), held constant outside them."""
+
+    def __init__(self, s, a, k):
+        self.s = np.asarray(s, float)
+        self.a = np.asarray(a, float)
+        self.k = np.asarray(k, float)
+        if self.a.size == 1:
+            self.a, self.k = np.array([0.0, 1.0]), np.repeat(self.k, 2)
+        # energy per unit s at the pose angles: int_0^a k(u) u du
+        a, k = self.a, self.k
+        e = [0.5 * k[0] * a[0] ** 2]
+        for i in range(a.size - 1):
+            e.append(e[-1] + self._seg(a[i], a[i + 1], k[i], k[i + 1], a[i + 1]))
+        self.e = np.array(e)
+
+    @staticmethod
+    def _seg(a0, a1, k0, k1, u):
+        """int_a0^u (k0 + (k1 - k0)(v - a0)/(a1 - a0)) v dv."""
+        sl = (k1 - k0) / (a1 - a0)
+        c = k0 - sl * a0
+        return c * (u * u - a0 * a0) / 2 + sl * (u ** 3 - a0 ** 3) / 3
+
+    def kval(self, u):
+        return np.interp(u, self.a, self.k)
+
+    def kslope(self, u):
+        i = np.clip(np.searchsorted(self.a, u, side="right") - 1, 0, self.a.size - 2)
+        sl = (self.k[i + 1] - self.k[i]) / (self.a[i + 1] - self.a[i])
+        return np.where((u < self.a[0]) | (u > self.a[-1]), 0.0, sl)
+
+    def torque(self, th):
+        return self.s * self.kval(np.abs(th)) * th
+
+    def dtorque(self, th):
+        u = np.abs(th)
+        return self.s * (self.kval(u) + self.kslope(u) * u)
+
+    def energy(self, th):
+        total = 0.0
+        for sj, t in zip(self.s, np.abs(th)):
+            a, k = self.a, self.k
+            if t <= a[0]:
+                v = 0.5 * k[0] * t * t
+            elif t >= a[-1]:
+                v = self.e[-1] + 0.5 * k[-1] * (t * t - a[-1] ** 2)
+            else:
+                i = int(np.searchsorted(a, t, side="right") - 1)
+                v = self.e[i] + self._seg(a[i], a[i + 1], k[i], k[i + 1], t)
+            total += sj * v
+        return float(total)
+
+
+# ----------------------------------------------------------------------------- the chain
+@dataclass
+class Chain:
+    """Rigid links 1..n of a chain cut from ``beam`` at ``gamma`` (SI), springs ``springs``."""
+
+    name: str
+    x1: float                     # link 0's length [m] (joint 1 at (x1, 0))
+    dyn: ChainDynamics            # links (its stiffness unused: springs below)
+    springs: object
+    L: float
+    info: dict
+
+    @property
+    def n(self):
+        return self.dyn.n
+
+    def tip(self, th):
+        x, z = self.dyn.tip(th)
+        return np.array([x + self.x1, z])
+
+    def tip_angle(self, th):
+        return float(np.sum(th))
+
+    # statics -------------------------------------------------------------------------
+    def _grad_hess(self, th, F):
+        q = np.cumsum(th)
+        ell = self.dyn.length
+        # d r_tip / d theta_k = sum_{j>=k} ell_j n(q_j)
+        fn = ell * (-F[0] * np.sin(q) + F[1] * np.cos(q))          # F . n_j ell_j
+        fe = ell * (F[0] * np.cos(q) + F[1] * np.sin(q))           # F . e_j ell_j
+        g = self.springs.torque(th) - np.cumsum(fn[::-1])[::-1]
+        tail = np.cumsum(fe[::-1])[::-1]
+        idx = np.maximum.outer(np.arange(self.n), np.arange(self.n))
+        H = tail[idx] + np.diag(self.springs.dtorque(th))
+        return g, H
+
+    def potential(self, th, F):
+        return self.springs.energy(th) - float(np.dot(F, self.tip(th)))
+
+    def equilibrium(self, F, th0):
+        """Minimum of the potential energy under the dead tip force F [N] near ``th0``."""
+        F = np.asarray(F, float)
+        scale = max(float(np.max(self.springs.dtorque(np.zeros(self.n)))), 1e-300)
+        res = minimize(lambda t: self.potential(t, F) / scale, np.array(th0, float),
+                       jac=lambda t: self._grad_hess(t, F)[0] / scale,
+                       hess=lambda t: self._grad_hess(t, F)[1] / scale,
+                       method="trust-exact", options={"gtol": 1e-12, "maxiter": 500})
+        th = res.x
+        for _ in range(5):                      # Newton polish
+            g, H = self._grad_hess(th, F)
+            th = th - np.linalg.solve(H, g)
+        g, H = self._grad_hess(th, F)
+        if np.max(np.abs(g)) / scale > 1e-9 or np.linalg.eigvalsh(H)[0] <= 0:
+            raise RuntimeError(f"{self.name}: no stable equilibrium found under F = {F}")
+        return th
+
+    def step_to(self, F0, th0, F1):
+        """Equilibrium under F1 continued from (F0, th0), with sub-steps where needed."""
+        F0, F1 = np.asarray(F0, float), np.asarray(F1, float)
+        steps = 1
+        while True:
+            try:
+                t = np.array(th0, float)
+                for s in range(1, steps + 1):
+                    t = self.equilibrium(F0 + (F1 - F0) * s / steps, t)
+                return t
+            except RuntimeError:
+                steps *= 4
+                if steps > 256:
+                    raise
+
+    def path(self, forces):
+        """Equilibria along a sequence of forces (rows), by continuation from the unloaded chain."""
+        th, Fprev, out = np.zeros(self.n), np.zeros(2), []
+        for F in np.asarray(forces, float):
+            th = self.step_to(Fprev, th, F)
+            Fprev = F
+            out.append(th.copy())
+        return out
+
+    def release_shape(self, target, force_angle=math.pi / 2, load_guess=None):
+        """Equilibrium under a tip force at ``force_angle`` whose tip angle is ``target`` [rad];
+        returns (theta, force magnitude). ``load_guess`` [N] sets the load steps."""
+        d = np.array([math.cos(force_angle), math.sin(force_angle)])
+        step = (load_guess or 1.0) / 8
+        lo, th_lo, hi = 0.0, np.zeros(self.n), None
+        for _ in range(400):           # march the load up until the tip angle passes the target
+            th_t = self.step_to(d * lo, th_lo, d * (lo + step))
+            if self.tip_angle(th_t) >= target:
+                hi, th_hi = lo + step, th_t
+                break
+            lo, th_lo = lo + step, th_t
+        if hi is None:
+            raise RuntimeError(f"{self.name}: tip angle {target} not reached")
+
+        def miss(P):
+            t = self.step_to(d * lo, th_lo, d * P)
+            return self.tip_angle(t) - target
+        Ps = brentq(miss, lo, hi, xtol=1e-15 * hi, rtol=1e-14)
+        return self.step_to(d * lo, th_lo, d * Ps), Ps
+
+    # dynamics -------------------------------------------------------------------------
+    def rhs(self, t, y):
+        n, A = self.n, self.dyn.A
+        th, thd = y[:n], y[n:]
+        q, qd = np.cumsum(th), np.cumsum(thd)
+        dq = q[:, None] - q[None, :]
+        Q = -self.springs.torque(th)
+        Qq = Q.copy()
+        Qq[:-1] -= Q[1:]
+        h = (A * np.sin(dq)) @ (qd * qd)
+        qdd = np.linalg.solve(A * np.cos(dq), Qq - h)
+        return np.concatenate([thd, np.diff(qdd, prepend=0.0)])
+
+    def energy(self, th, thd):
+        return float(0.5 * thd @ self.dyn.mass_matrix(th) @ thd) + self.springs.energy(th)
+
+    def release(self, th0, t_eval, periods=PERIODS, rtol=1e-10):
+        """Free vibration from rest at ``th0``: tip at ``t_eval`` and the periods (times between
+        successive downward crossings of the tip through z = 0)."""
+        n = self.n
+        y0 = np.concatenate([th0, np.zeros(n)])
+        sign = 1.0 if self.tip(th0)[1] > 0 else -1.0
+
+        def crossing(t, y):
+            return sign * self.tip(y[:n])[1]
+        crossing.direction = -1
+        T_guess = t_eval[-1] / periods
+        crossing.terminal = False
+        scale = float(np.max(np.abs(th0)))
+        for extra in (1.5, 3.0, 10.0):            # long enough for two downward crossings
+            t_end = t_eval[-1] + extra * T_guess
+            sol = solve_ivp(self.rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol,
+                            atol=rtol * scale * 1e-2, events=crossing, dense_output=True)
+            if not sol.success:
+                raise RuntimeError(f"{self.name}: integration failed: {sol.message}")
+            tc = sol.t_events[0]
+            if tc.size >= 2:
+                break
+        Y = sol.sol(t_eval)
+        tips = np.array([self.tip(Y[:n, i]) for i in range(t_eval.size)])
+        E = [self.energy(Y[:n, i], Y[n:, i]) for i in range(0, t_eval.size, 10)]
+        drift = float(np.max(np.abs(np.array(E) - E[0])) / E[0])
+        return tips, np.diff(tc), drift
+
+
+def make_chain(beam: Beam, name: str, gamma, springs_fn, info=None) -> Chain:
+    """Cut the chain at ``gamma`` (n+1) from ``beam``; ``springs_fn(s_si)`` gives the springs
+    from the ``beam`` law's base stiffness s_j [N m/rad]."""
+    bt = BeamTensors.from_beams(beam)
+    g = torch.as_tensor(np.asarray(gamma, float), dtype=torch.float64)
+    links = links_from_gamma(bt, g)
+    ph = {k: v.numpy() for k, v in links.physical(bt).items()}
+    s_si = base_stiffness(bt, links, "beam").numpy() * beam.material.E * beam.thickness ** 3
+    n = g.numel() - 1
+    springs = springs_fn(s_si)
+    dyn = ChainDynamics(length=ph["length"][1:], com=ph["com"], mass=ph["mass"],
+                        inertia=ph["inertia"], stiffness=np.zeros(n), damping=np.zeros(n),
+                        springref=np.zeros(n))
+    return Chain(name=name, x1=float(ph["length"][0]), dyn=dyn, springs=springs,
+                 L=beam.length, info=dict(info or {}, gamma=[float(v) for v in gamma]))
+
+
+def build_methods(beam: Beam, methods=METHODS, starts=None, seed=0, sur=None) -> dict:
+    """The chains of ``methods`` for ``beam``."""
+    from prbdm.fit import fit_prbdm
+    from prbdm.truth import bending_frequencies
+
+    out = {}
+    pose_angles = paper_poses(4)[:, 0].numpy()
+    omega = None
+    for m in methods:
+        t0 = time.perf_counter()
+        if m in ("howell-1r", "su-3r"):
+            prbm = HOWELL_1R if m == "howell-1r" else SU_3R
+            K = joint_stiffness(beam, prbm, "tip")
+            ch = make_chain(beam, m, prbm.gamma, lambda s, K=K: LinearSprings(K),
+                            {"K": K.tolist()})
+        elif m.startswith("rfe-"):
+            n = int(m.split("-")[1])
+            ch = make_chain(beam, m, uniform_gamma(n).numpy(), LinearSprings, {"k": 1.0})
+        elif m in ("fit-paper", "fit-const"):
+            if omega is None:
+                omega = bending_frequencies(beam, "beam", modes=4).omega
+            kw = {} if m == "fit-paper" else {"poses": "linear"}
+            if starts:
+                kw["starts"] = starts
+            fit = fit_prbdm(beam, omega, joints=4,
+                            seed=seed, **kw)
+            gamma, k = np.asarray(fit.gamma), np.asarray(fit.k)
+            info = {"k": k.tolist(), "loss_percent": float(fit.loss_percent)}
+            if m == "fit-paper":
+                ch = make_chain(beam, m, gamma,
+                                lambda s, k=k: InterpolatedSprings(s, pose_angles, k), info)
+            else:
+                ch = make_chain(beam, m, gamma, lambda s, k=k: LinearSprings(k[0] * s), info)
+        elif m == "network":
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                pred = sur.predict([beam])
+            gamma, k = np.asarray(pred.gamma[0]), np.asarray(pred.k[0])
+            angles = np.asarray(pred.poses)[:, 0]
+            ch = make_chain(beam, m, gamma, lambda s, k=k: InterpolatedSprings(s, angles, k),
+                            {"k": k.tolist(),
+                             "warnings": [str(w.message)[:200] for w in caught]
+                             + list(map(str, pred.warnings))})
+        else:
+            raise ValueError(m)
+        ch.info["build_s"] = time.perf_counter() - t0
+        out[m] = ch
+    return out
+
+
+# ----------------------------------------------------------------------------- the tests
+def static_paths(beam: Beam, chains: dict) -> dict:
+    """Tip paths under a dead tip force (vertical and at 45 deg) at the rod's loads."""
+    L = beam.length
+    res = {}
+    for key, (fa_deg, angles) in STATIC_ANGLES.items():
+        fa = fa_deg * DEG
+        rods = [rod_static(beam, tip_angle=a * DEG, force_angle=fa) for a in angles]
+        forces = np.array([r.force for r in rods])
+        entry = {"force_angle_deg": fa_deg, "rod_tip_angle_deg": list(angles),
+                 "force_N": forces.tolist(),
+                 "rod": {"tip_x": [r.tip_x for r in rods], "tip_z": [r.tip_z for r in rods],
+                         "tip_angle": [r.tip_angle for r in rods]}, "methods": {}}
+        rod_tip = np.array([[r.tip_x, r.tip_z] for r in rods])
+        for name, ch in chains.items():
+            ths = ch.path(forces)
+            tips = np.array([ch.tip(t) for t in ths])
+            err = np.linalg.norm(tips - rod_tip, axis=1) / L
+            entry["methods"][name] = {
+                "tip_x": tips[:, 0].tolist(), "tip_z": tips[:, 1].tolist(),
+                "tip_angle": [ch.tip_angle(t) for t in ths],
+                "tip_error": err.tolist()}
+        res[key] = entry
+    return res
+
+
+def vibrations(beam: Beam, chains: dict, angles=RELEASE_ANGLES, rod_kw=None) -> dict:
+    """Free vibration released from the static shape at each tip angle."""
+    rod_kw = dict(rod_kw or {})
+    out = {}
+    for a in angles:
+        t0 = time.perf_counter()
+        rod = rod_response(beam, a * DEG, periods=PERIODS, **rod_kw)
+        T_rod = float(rod.periods[0])
+        sel = rod.t <= PERIODS * float(rod.period) * (1 + 1e-12)
+        t = rod.t[sel]
+        rod_tip = np.stack([rod.tip_x[sel], rod.tip_z[sel]], axis=1)
+        z0 = float(rod.tip_z[0])
+        entry = {"rod": {"period_s": T_rod, "mean_period_s": float(rod.period),
+                         "periods_s": rod.periods.tolist(), "tip0": rod_tip[0].tolist(),
+                         "load_N": float(np.hypot(*rod.equilibrium.force)),
+                         "energy_drift": rod.energy_drift, "mesh": rod.mesh,
+                         "time_s": time.perf_counter() - t0}, "methods": {}}
+        _log(f"  {a:g} deg rod: period {T_rod:.6g} s, {entry['rod']['time_s']:.1f} s")
+        for name, ch in chains.items():
+            t1 = time.perf_counter()
+            th0, P = ch.release_shape(a * DEG, load_guess=entry["rod"]["load_N"])
+            tips, periods, drift = ch.release(th0, t)
+            T = float(periods[0]) if periods.size else math.nan
+            diff = np.linalg.norm(tips - rod_tip, axis=1)
+            entry["methods"][name] = {
+                "period_s": T, "periods_s": periods.tolist(),
+                "period_error": abs(T / T_rod - 1.0),
+                "trajectory_rms": float(np.sqrt(np.mean(diff ** 2)) / z0),
+                "tip0": tips[0].tolist(), "load_N": P, "energy_drift": drift,
+                "time_s": time.perf_counter() - t1}
+            _log(f"  {a:g} deg {name}: period error {abs(T / T_rod - 1):.2e}, "
+                 f"{time.perf_counter() - t1:.1f} s")
+        out[f"{a:g}"] = entry
+    return out
+
+
+def run_static(beam: Beam, methods=METHODS, starts=None, sur=None):
+    """(record, chains) of the static test."""
+    t0 = time.perf_counter()
+    chains = build_methods(beam, methods, starts=starts, sur=sur)
+    rec = {"beam": beam.to_dict(), "methods": {k: c.info for k, c in chains.items()}}
+    rec["static"] = static_paths(beam, chains)
+    rec["static_time_s"] = time.perf_counter() - t0
+    return rec, chains
+
+
+def run_dynamics(beam: Beam, rec: dict, chains: dict, methods, rod_kw=None,
+                 release_angles=RELEASE_ANGLES) -> dict:
+    t0 = time.perf_counter()
+    rec["vibration"] = vibrations(beam, {m: chains[m] for m in methods}, release_angles, rod_kw)
+    rec["dynamics_time_s"] = time.perf_counter() - t0
+    return rec
+
+
+# ----------------------------------------------------------------------------- summary
+def summarise(records: list, methods) -> dict:
+    summ = {}
+    for m in methods:
+        s = {}
+        for key, rep in REPORT_STATIC.items():
+            for a in rep:
+                vals = []
+                for r in records:
+                    e = r["static"][key]
+                    i = e["rod_tip_angle_deg"].index(a)
+                    vals.append(e["methods"][m]["tip_error"][i])
+                s[f"static_{key}_{a}"] = {"median": float(np.median(vals)),
+                                          "worst": float(np.max(vals)), "beams": len(vals)}
+        for a in RELEASE_ANGLES:
+            for q in ("period_error", "trajectory_rms"):
+                vals = [r["vibration"][f"{a:g}"]["methods"][m][q] for r in records
+                        if "vibration" in r and f"{a:g}" in r["vibration"]
+                        and m in r["vibration"][f"{a:g}"]["methods"]]
+                if vals:
+                    s[f"{q}_{a:g}"] = {"median": float(np.median(vals)),
+                                       "worst": float(np.max(vals)), "beams": len(vals)}
+        summ[m] = s
+    return summ
+
+
+def table(summ: dict, count: int) -> str:
+    cols = [("static_vertical_30", "tip 30°"), ("static_vertical_60", "tip 60°"),
+            ("static_vertical_75", "tip 75°"), ("static_45deg_40", "45° F, 40°")]
+    lines = [f"Static tip-position error / L at matched load, median over {count} beams "
+             "(worst in brackets)", "",
+             "| method | " + " | ".join(c[1] for c in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for m, s in summ.items():
+        lines.append(f"| {m} | " + " | ".join(
+            f"{s[c]['median']:.2e} ({s[c]['worst']:.1e})" for c, _ in cols) + " |")
+    dyn = max([v["beams"] for s in summ.values() for k, v in s.items()
+               if k.startswith("period")] or [0])
+    lines += ["", f"Free vibration (released from the static shape), median over {dyn} beams "
+              "(worst in brackets): first-period error | tip-trajectory RMS / initial deflection",
+              "",
+              "| method | " + " | ".join(f"period {a:g}°" for a in RELEASE_ANGLES) + " | "
+              + " | ".join(f"RMS {a:g}°" for a in RELEASE_ANGLES) + " |",
+              "|---|" + "---|" * (2 * len(RELEASE_ANGLES))]
+    for m, s in summ.items():
+        cells = []
+        for q in ("period_error", "trajectory_rms"):
+            for a in RELEASE_ANGLES:
+                v = s.get(f"{q}_{a:g}")
+                cells.append(f"{100 * v['median']:.2f} % ({100 * v['worst']:.1f} %)" if v
+                             else "-")
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def plot(records: list, methods, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(10.5, 3.4), constrained_layout=True)
+    for ci, m in enumerate(methods):
+        c = f"C{ci}"
+        for ax, key in ((axes[0], "vertical"), (axes[1], "45deg")):
+            ang = records[0]["static"][key]["rod_tip_angle_deg"]
+            err = np.array([r["static"][key]["methods"][m]["tip_error"] for r in records])
+            ax.semilogy(ang, np.median(err, 0), "-o", color=c, ms=3, label=m)
+            ax.semilogy(ang, err.max(0), ":", color=c, lw=0.8)
+        vib = [r for r in records if "vibration" in r
+               and m in r["vibration"][f"{RELEASE_ANGLES[0]:g}"]["methods"]]
+        if vib:
+            pe = np.array([[r["vibration"][f"{a:g}"]["methods"][m]["period_error"]
+                            for a in RELEASE_ANGLES] for r in vib])
+            axes[2].semilogy(RELEASE_ANGLES, np.median(pe, 0), "-o", color=c, ms=3, label=m)
+            axes[2].semilogy(RELEASE_ANGLES, pe.max(0), ":", color=c, lw=0.8)
+    axes[0].set_title("tip force perpendicular to the beam", fontsize=9)
+    axes[1].set_title("tip force at 45° to the beam", fontsize=9)
+    for ax in axes[:2]:
+        ax.set_xlabel("rod tip angle [deg]")
+        ax.set_ylabel("|tip position error| / L")
+    axes[2].set_title("free vibration from a static shape", fontsize=9)
+    axes[2].set_xlabel("release tip angle [deg]")
+    axes[2].set_ylabel("first-period error")
+    for ax in axes:
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"median over {len(records)} beams (solid), worst (dotted)", fontsize=9)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true",
+                    help="the Table-2 and tapered beams and 2 random strips, cheaper rod dynamics")
+    ap.add_argument("--random", type=int, default=None, help="random strips (default 20; quick 2)")
+    ap.add_argument("--seed", type=int, default=0, help="random_beam seed (default 0)")
+    ap.add_argument("--beams", type=int, default=None,
+                    help="use only the first N beams of the list (smoke tests)")
+    ap.add_argument("--release", default=None,
+                    help="release tip angles [deg], comma separated (default 10,30,60)")
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--dynamics-methods", default=",".join(m for m in METHODS if m != "rfe-20"),
+                    help="methods of the free-vibration test (default all but rfe-20, whose "
+                         "stiff 20-link chain costs minutes per release)")
+    ap.add_argument("--no-dynamics", action="store_true")
+    ap.add_argument("--starts", type=int, default=None, help="fit starts (default the fit's)")
+    ap.add_argument("--rod-elements", type=int, default=None)
+    ap.add_argument("--rod-degree", type=int, default=None)
+    ap.add_argument("--rod-rtol", type=float, default=None)
+    ap.add_argument("--json", default=None)
+    ap.add_argument("--plot", default=None)
+    args = ap.parse_args(argv)
+    global RELEASE_ANGLES
+    if args.release:
+        RELEASE_ANGLES = tuple(float(v) for v in args.release.split(","))
+    count = args.random if args.random is not None else (2 if args.quick else 20)
+    rod_kw = ({"elements": 4, "degree": 3, "rtol": 1e-8} if args.quick
+              else {"elements": 4, "degree": 4, "rtol": 1e-9})
+    for k, v in (("elements", args.rod_elements), ("degree", args.rod_degree),
+                 ("rtol", args.rod_rtol)):
+        if v is not None:
+            rod_kw[k] = v
+    methods = tuple(args.methods.split(","))
+    torch.manual_seed(0)
+    np.random.seed(0)
+    sur = None
+    if "network" in methods:
+        from prbdm import surrogate
+        sur = surrogate.load_checkpoint(surrogate.default_checkpoint(4, "beam", "eigenvalue"))
+    blist = beams(count, args.seed)
+    if args.beams:
+        blist = blist[:args.beams]
+    t0 = time.perf_counter()
+    records, chain_sets = [], []
+    for b in blist:                                   # statics first, every beam
+        rec, chains = run_static(b, methods, starts=args.starts, sur=sur)
+        records.append(rec)
+        chain_sets.append(chains)
+        st = rec["static"]["vertical"]
+        i = st["rod_tip_angle_deg"].index(60)
+        print(f"{b.name}: {rec['static_time_s']:.1f} s; static error at 60 deg: " + ", ".join(
+            f"{m} {st['methods'][m]['tip_error'][i]:.1e}" for m in methods), flush=True)
+        if args.json:                       # save as we go
+            _save(args, records, methods, rod_kw, count, time.perf_counter() - t0)
+    dyn_methods = [m for m in args.dynamics_methods.split(",") if m in methods]
+    if not args.no_dynamics:
+        for b, rec, chains in zip(blist, records, chain_sets):
+            run_dynamics(b, rec, chains, dyn_methods, rod_kw, RELEASE_ANGLES)
+            print(f"{b.name}: dynamics {rec['dynamics_time_s']:.1f} s; period error at "
+                  f"{RELEASE_ANGLES[-1]:g} deg: " + ", ".join(
+                      f"{m} {rec['vibration'][f'{RELEASE_ANGLES[-1]:g}']['methods'][m]['period_error']:.1e}"
+                      for m in dyn_methods), flush=True)
+            if args.json:
+                _save(args, records, methods, rod_kw, count, time.perf_counter() - t0)
+    summ = summarise(records, methods)
+    print(table(summ, len(records)))
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    if args.json:
+        _save(args, records, methods, rod_kw, count, time.perf_counter() - t0, summ)
+    if args.plot:
+        plot(records, methods, args.plot)
+    return 0
+
+
+def _save(args, records, methods, rod_kw, count, elapsed, summ=None):
+    doc = {"command": "python benchmarks/large_deflection.py " + " ".join(sys.argv[1:]),
+           "methods": list(methods), "rod_dynamics": rod_kw, "random_beams": count,
+           "random_seed": args.seed, "release_angles_deg": list(RELEASE_ANGLES),
+           "periods": PERIODS, "time_s": elapsed,
+           "summary": summ if summ is not None else summarise(records, methods),
+           "beams": records}
+    with open(args.json, "w") as f:
+        json.dump(doc, f, indent=1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
