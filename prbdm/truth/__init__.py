@@ -63,10 +63,14 @@ def _check_modes(model, modes):
     return int(modes)
 
 
+#: the most truth modes beyond the mapped ones a plate fit asks for (reported beside the fit)
+PLATE_EXTRA_MODES = 4
+
+
 def modes_for_fit(model: str, joints: int, modes: int) -> int:
     """How many truth modes a fit of ``joints`` joints mapping ``modes`` modes asks ``model`` for:
-    the mapped r = min(joints, modes), and for the beam truths up to max(joints, modes) where
-    the model gives that many (the rest are reported beside the fit). BadInput naming --modes when the mapped
+    the mapped r = min(joints, modes), and up to max(joints, modes) where the model gives that
+    many (the rest are reported beside the fit; a plate at most PLATE_EXTRA_MODES more). BadInput naming --modes when the mapped
     modes are more than the model gives."""
     r = min(joints, modes)
     top = MAX_MODES[model]
@@ -75,8 +79,8 @@ def modes_for_fit(model: str, joints: int, modes: int) -> int:
                        f"truth gives at most {top} modes; map at most {top}")
     if model in ("plate", "mindlin"):
         # a plate's higher bending modes cost a longer eigen-search and may not exist (a panel
-        # whose modes are mostly chordwise has few): the mapped ones only
-        return r
+        # whose modes are mostly chordwise has few): at most PLATE_EXTRA_MODES beyond the mapped
+        return max(r, min(max(joints, modes), r + PLATE_EXTRA_MODES))
     return max(r, min(max(joints, modes), top))
 
 
