@@ -70,7 +70,14 @@ def add_arguments(parser):
 def run(args) -> int:
     from ..parsing import parse_poses
 
-    beam, info = read_beam(args, "fit", model=None if args.truth == "auto" else args.truth)
+    from ..truth.choice import choose_truth
+    from ._common import beam_from_file
+
+    # read once; `auto` chooses from the panel, then the beam is checked against the chosen
+    # truth's limits before anything is printed (a refusal is one line)
+    beam = beam_from_file(args)
+    model, reason = choose_truth(beam, args.truth)
+    beam, info = read_beam(args, "fit", model=model, beam=beam)
     n = args.joints
     modes = args.modes or n
     poses, warnings = parse_poses(args.poses, n)
@@ -79,9 +86,7 @@ def run(args) -> int:
         require("matplotlib", purpose="--plot")
 
     from ..truth import bending_frequencies, modes_for_fit
-    from ..truth.choice import choose_truth
 
-    model, reason = choose_truth(beam, args.truth)
     try:
         truth = bending_frequencies(beam, model=model, modes=modes_for_fit(model, n, modes))
     except BadInput as exc:

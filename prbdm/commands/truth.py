@@ -56,8 +56,13 @@ def run(args) -> int:
 
     if args.model == "rod" or args.tip_angle is not None or args.arc is not None:
         return _rod(args)
-    beam, info = read_beam(args, "truth", model=None if args.model == "auto" else args.model)
+    from ._common import beam_from_file
+
+    # read once; `auto` chooses from the panel, then the beam is checked against the chosen
+    # truth's limits before anything is printed (a refusal is one line)
+    beam = beam_from_file(args)
     args.model, reason = choose_truth(beam, args.model)
+    beam, info = read_beam(args, "truth", model=args.model, beam=beam)
     options = {}
     if args.selection is not None:
         if args.model not in ("plate", "mindlin"):
