@@ -78,7 +78,8 @@ def _plausible_first(loss, k, mu, lam):
     within 50 % (median worst 20 %) at a loss a median 1.6 times higher."""
     from ..constants import SELF_CHECK_IMPLAUSIBLE
 
-    err = np.sqrt(k[..., None] * mu / lam[:, None, None, :]) - 1.0          # (B, H, m, r)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # a broken head
+        err = np.sqrt(k[..., None] * mu / lam[:, None, None, :]) - 1.0      # (B, H, m, r)
     bad = ~(np.abs(err) <= SELF_CHECK_IMPLAUSIBLE).all(axis=(-2, -1))       # (B, H)
     some = ~bad.all(axis=1, keepdims=True)
     return np.where(bad & some, np.inf, loss)
