@@ -543,13 +543,14 @@ def plot(records: list, methods, path) -> None:
     for ax in axes[:2]:
         ax.set_xlabel("rod tip angle [deg]")
         ax.set_ylabel("|tip position error| / L")
-    axes[2].set_title("free vibration from a static shape", fontsize=9)
+    nvib = sum("vibration" in r for r in records)
+    axes[2].set_title(f"free vibration from a static shape ({nvib} beams)", fontsize=9)
     axes[2].set_xlabel("release tip angle [deg]")
     axes[2].set_ylabel("first-period error")
     for ax in axes:
         ax.grid(alpha=0.3, which="both")
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"median over {len(records)} beams (solid), worst (dotted)", fontsize=9)
+    fig.suptitle(f"statics: {len(records)} beams; median (solid), worst (dotted)", fontsize=9)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
