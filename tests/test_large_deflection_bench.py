@@ -52,6 +52,7 @@ def test_rfe_chain_statics_converge_to_the_rod(bench, make):
     assert errs[40] < errs[10] < errs[4], errs
 
 
+@pytest.mark.slow
 def test_quick_run_on_one_beam(bench, tmp_path):
     out = tmp_path / "ld.json"
     assert bench.main(["--quick", "--beams", "1", "--release", "10", "--starts", "8",
