@@ -93,14 +93,15 @@ def _number(v, name, lo=-math.inf, hi=math.inf, what=""):
     return float(v)
 
 
+def _integer(v, name: str, lo: int, hi: int) -> int:
+    """``v`` as an int in [lo, hi], else BadInput naming ``name`` and the range."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+        raise BadInput(f"{name}: must be an integer in [{lo}, {hi}], got {v!r}")
+    return int(v)
+
+
 def _discretisation(elements, degree):
-    if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) \
-            or not 2 <= elements <= 400:
-        raise BadInput(f"elements: must be an integer in [2, 400], got {elements!r}")
-    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) \
-            or not 1 <= degree <= 12:
-        raise BadInput(f"degree: must be an integer in [1, 12], got {degree!r}")
-    return int(elements), int(degree)
+    return _integer(elements, "elements", 2, 400), _integer(degree, "degree", 1, 12)
 
 
 # ---------------------------------------------------------------------------- statics: shooting
@@ -558,12 +559,8 @@ def rod_response(beam: Beam, tip_angle: float, *, force_angle: float = math.pi /
     """
     t0 = time.perf_counter()
     sc = _scaled(beam)
-    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) \
-            or not 1 <= periods <= 50:
-        raise BadInput(f"periods: must be an integer in [1, 50], got {periods!r}")
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) \
-            or not 16 <= steps <= 100000:
-        raise BadInput(f"steps: must be an integer in [16, 100000], got {steps!r}")
+    periods = _integer(periods, "periods", 1, 50)
+    steps = _integer(steps, "steps", 16, 100000)
     rtol = _number(rtol, "rtol", 1e-13, 1e-4)
     if method not in ("midpoint", "DOP853", "Radau"):
         raise BadInput(f"method: must be one of midpoint, DOP853, Radau, got {method!r}")
