@@ -62,8 +62,7 @@ from scipy.optimize import brentq, minimize
 
 from prbdm.classical import HOWELL_1R, SU_3R, joint_stiffness
 from prbdm.geometry import Beam, Material, random_beam
-from prbdm.model import (BeamTensors, base_stiffness, links_from_gamma, paper_poses,
-                         uniform_gamma)
+from prbdm.model import BeamTensors, base_stiffness, links_from_gamma, paper_poses, uniform_gamma
 from prbdm.simulate import ChainDynamics
 from prbdm.truth.rod import rod_response, rod_static
 
@@ -258,7 +257,7 @@ class Chain:
         for _ in range(400):           # march the load up until the tip angle passes the target
             th_t = self.step_to(d * lo, th_lo, d * (lo + step))
             if self.tip_angle(th_t) >= target:
-                hi, th_hi = lo + step, th_t
+                hi = lo + step
                 break
             lo, th_lo = lo + step, th_t
         if hi is None:

@@ -69,7 +69,6 @@ def add_arguments(parser):
 
 def run(args) -> int:
     from ..parsing import parse_poses
-
     from ..truth.choice import choose_truth
     from ._common import beam_from_file
 

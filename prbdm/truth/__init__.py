@@ -70,8 +70,8 @@ PLATE_EXTRA_MODES = 4
 def modes_for_fit(model: str, joints: int, modes: int) -> int:
     """How many truth modes a fit of ``joints`` joints mapping ``modes`` modes asks ``model`` for:
     the mapped r = min(joints, modes), and up to max(joints, modes) where the model gives that
-    many (the rest are reported beside the fit; a plate at most PLATE_EXTRA_MODES more). BadInput naming --modes when the mapped
-    modes are more than the model gives."""
+    many (the rest are reported beside the fit; a plate at most PLATE_EXTRA_MODES more).
+    BadInput naming --modes when the mapped modes are more than the model gives."""
     r = min(joints, modes)
     top = MAX_MODES[model]
     if r > top:
