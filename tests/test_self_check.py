@@ -143,3 +143,14 @@ def test_a_shape_fit_of_a_plate_does_not_pretend_to_check_its_poses(run, beam_fi
     assert rc == 0, err
     poses = json.loads(out)["self_check"]["poses"]
     assert poses["checked"] is False and "shell" in poses["why"]
+
+
+def test_compare_checks_every_route_against_the_truth(run, beam_file):
+    rc, out, err = run("compare", beam_file(NECK_ON_A_CUT), "--joints", 4, "--starts", 4,
+                       "--json")
+    assert rc == 0, err
+    d = json.loads(out)
+    for key in ("network", "fit", "refined"):
+        check = d[key]["self_check"]
+        assert check["objective"] == d["objective"] and check["modes"] == d["modes"]
+        assert check["loss_percent"] == pytest.approx(d[key]["loss_percent"], rel=1e-9)

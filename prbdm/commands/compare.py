@@ -178,6 +178,17 @@ def run(args) -> int:
         "warnings": [w.replace("beam 0: ", "") for w in pred.warnings + pred.problems] + notes,
         "input": info,
     }
+    # every answer checks itself against the truth it is compared with, by its objective's measure
+    from ..preflight import check_answer
+
+    for key, label in (("network", "the network's PRBDM"), ("fit", "the fit"),
+                       ("refined", "the refined fit")):
+        out[key]["self_check"], off = check_answer(
+            out[key]["omega"], omega_t, r, pred.poses, truth_source=f"the {truth.model} truth",
+            remedy="the fit is the faithful route where the network is off"
+            if key == "network" else "`prbdm fit --objective frequency` keeps every mode close",
+            objective=sur.objective)
+        out["warnings"] += [f"{label}: {w}" for w in off]
     for w in out["warnings"]:
         sys.stderr.write(f"prbdm compare: warning: {w}\n")
     if args.json:
