@@ -33,6 +33,17 @@ def script(name, *args, cwd=REPO):
                           capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
+def _same_to(a, b, rtol) -> bool:
+    """Equal structures, floats to ``rtol``."""
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same_to(a[k], b[k], rtol) for k in a)
+    if isinstance(a, list):
+        return len(a) == len(b) and all(_same_to(x, y, rtol) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return abs(a - b) <= rtol * max(abs(a), abs(b))
+    return a == b
+
+
 def listing(folder: Path) -> dict:
     """Every file under ``folder`` with its bytes: what a run wrote, truncated or removed."""
     return {p.relative_to(folder).as_posix(): p.read_bytes()
@@ -362,9 +373,12 @@ def test_retest_writes_the_bands_only_for_the_same_measurement(tmp_path):
     run = script("retest.py", "--checkpoint", bare, "--write", 1)
     assert run.returncode == 0, run.stderr[-2000:]
     after, meta_after = sg.read_checkpoint(bare)
-    assert meta_after["test"]["by_width"] == bands
+    # the bands measured here: the recorded ones to retest's float32 tolerance (another CPU's
+    # kernels round them ~4e-6 apart; OPENBLAS_CORETYPE=Prescott)
+    assert _same_to(meta_after["test"]["by_width"], bands, 1e-4)
     assert meta_after["weights_sha256"] == sg.weights_sha256(tensors)
-    assert json.loads(bare.with_suffix(".json").read_text())["test"]["by_width"] == bands
+    assert json.loads(bare.with_suffix(".json").read_text())["test"]["by_width"] == \
+        meta_after["test"]["by_width"]
 
     wrong = sg.save_checkpoint(tmp_path / "wrong.safetensors", tensors,
                                dict(meta, test=dict(meta["test"], loss_median=1.0)))
