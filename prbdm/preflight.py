@@ -245,8 +245,8 @@ def check_answer(omega, truth, modes: int, poses, *, truth_source: str, remedy: 
                  implausible: float = SELF_CHECK_IMPLAUSIBLE):
     """Every answer checks itself: (check, warnings) for a PRBDM's frequencies ``omega`` (m, n)
     [rad/s], one row per pose of ``poses`` (m, n) [rad], against the truth it was made for
-    (``truth`` (R,) [rad/s], named by ``truth_source``) over the first ``modes`` modes, by the
-    measure of the ``objective`` it was made with.
+    (``truth`` (R,) [rad/s], or (m, R): one per pose, named by ``truth_source``) over the first
+    ``modes`` modes, by the measure of the ``objective`` it was made with.
 
     ``check`` (JSON-ready): per mode the worst relative error over the poses and the pose where it
     is, the worst mode, the paper's loss [%] over the poses, the measure and its tolerance, ``ok``
@@ -256,14 +256,15 @@ def check_answer(omega, truth, modes: int, poses, *, truth_source: str, remedy: 
     drift by design) one when its loss exceeds ``loss_tolerance`` [%]; for either, one per mode
     beyond ``implausible``."""
     om = np.atleast_2d(np.asarray(omega, float))
-    tr = np.asarray(truth, float)
-    r = int(min(modes, om.shape[-1], tr.size))
-    err = om[:, :r] / tr[None, :r] - 1.0                       # (m, r)
+    tr = np.atleast_2d(np.asarray(truth, float))                # (1 or m, R)
+    r = int(min(modes, om.shape[-1], tr.shape[-1]))
+    err = om[:, :r] / tr[:, :r] - 1.0                           # (m, r)
     err = np.where(np.isfinite(err), err, np.inf)
     at = np.argmax(np.abs(err), axis=0)                        # worst pose per mode
     worst = err[at, np.arange(r)]
-    lam, lam_t = om[:, :r] ** 2, tr[:r] ** 2
-    loss = float(100 * np.mean(np.linalg.norm(lam - lam_t, axis=-1) / np.linalg.norm(lam_t)))
+    lam, lam_t = om[:, :r] ** 2, tr[:, :r] ** 2
+    loss = float(100 * np.mean(np.linalg.norm(lam - lam_t, axis=-1)
+                               / np.linalg.norm(lam_t, axis=-1)))
     loss = loss if np.isfinite(loss) else math.inf
     poses = np.atleast_2d(np.asarray(poses, float))
     by_loss = objective == "eigenvalue"
