@@ -102,7 +102,7 @@ def test_the_cycle_finder_finds_a_cycle():
 
 def test_the_graph_sees_the_imports():
     g = graph(lazy=True)
-    assert "prbdm.signals" in g["prbdm.simulate"] and "prbdm.signals" in g["prbdm.export"]
+    assert "prbdm.signals" in g["prbdm.simulate"] and "prbdm.signals" in g["prbdm.export.verify"]
     assert "prbdm.truth" in g["prbdm.simulate"]    # beam_modes: the truth's beam model
 
 
