@@ -41,6 +41,7 @@ import torch
 
 from .errors import BadInput
 from .geometry import check_prbdm_width_ratio
+from .poses import pose_set
 from .sections import span_integrals
 
 __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stiffness",
@@ -233,36 +234,16 @@ def base_stiffness(beam: BeamTensors, links: Links, law: str = "beam") -> torch.
 
 # ----------------------------------------------------------------------------- poses
 def paper_poses(n: int, dtype=torch.float64) -> torch.Tensor:
-    """Eqs. 7-8 as the reference code builds them: pose i puts every joint at 0.1 + 0.05 i rad,
-    i = 0..m-1, m the largest count with n theta <= pi/2 (one pose at pi/(2n) if that is < 0.1).
-    Shape (m, n)."""
-    limit = math.pi / (2 * n)
-    if limit < 0.1:
-        angles = [limit]
-    else:
-        m = int(math.floor((limit - 0.1) / 0.05 + 1e-9)) + 1
-        angles = [0.1 + 0.05 * i for i in range(m)]
-    return torch.tensor(angles, dtype=dtype)[:, None].expand(-1, n).clone()
+    """The paper's pose set (m, n), Eqs. 7-8 (:func:`prbdm.poses.paper_angles`)."""
+    return torch.as_tensor(pose_set("paper", n)).to(dtype)
 
 
 def make_poses(spec, n: int, dtype=torch.float64) -> torch.Tensor:
     """Pose set (m, n) from ``'paper'``, ``'linear'`` (theta = 0), a list of angles (each pose puts
-    every joint at that angle), or an explicit (m, n) array. Angles in rad, n * theta <= pi/2."""
-    if isinstance(spec, str):
-        if spec == "paper":
-            return paper_poses(n, dtype)
-        if spec == "linear":
-            return torch.zeros(1, n, dtype=dtype)
-        raise BadInput(f"poses: must be 'paper', 'linear' or a list of angles, got {spec!r}")
-    poses = torch.as_tensor(spec, dtype=dtype)
-    if poses.ndim == 1:
-        poses = poses[:, None].expand(-1, n).clone()
-    if poses.ndim != 2 or poses.shape[-1] != n or poses.shape[0] < 1:
-        raise BadInput(f"poses: must be a list of angles or an (m, {n}) array, got shape "
-                       f"{tuple(poses.shape)}")
-    if not torch.isfinite(poses).all():
-        raise BadInput("poses: all angles must be finite")
-    return poses
+    every joint at that angle), or an explicit (m, n) array (:func:`prbdm.poses.pose_set`)."""
+    if isinstance(spec, torch.Tensor):
+        spec = spec.detach().cpu().numpy()
+    return torch.as_tensor(pose_set(spec, n)).to(dtype)
 
 
 # ----------------------------------------------------------------------------- eigenvalues

@@ -18,9 +18,13 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["POSE_TARGETS", "hold_stiffness", "shape_truths"]
+__all__ = ["POSE_TARGETS", "DEFAULT_POSE_TARGET", "hold_stiffness", "hold_prediction",
+           "shape_truths"]
 
 POSE_TARGETS = ("straight", "shape")
+#: what ``prbdm fit`` matches away from rest unless told (``--pose-target``): the measurement
+#: above supports the panel in the pose's shape; the paper's target is one flag away
+DEFAULT_POSE_TARGET = "shape"
 
 
 def hold_stiffness(beam, rest, poses):
@@ -40,6 +44,20 @@ def hold_stiffness(beam, rest, poses):
     return dataclasses.replace(rest, k=k, omega=lam.sqrt().numpy(), poses=poses,
                                extra={**rest.extra, "pose_target": "shape",
                                       "fitted_at": "rest (theta = 0)"})
+
+
+def hold_prediction(batch, gamma, k_rest, poses):
+    """NumPy twin of :func:`hold_stiffness` for a network's answer at rest: ``batch`` a
+    :class:`prbdm.chain.BeamBatch` of B beams, ``gamma`` (B, n+1), ``k_rest`` (B,) the SCF at rest,
+    ``poses`` (m, n) [rad] -> ``k`` (B, m), the rest SCF at every pose, and ``omega`` (B, m, n)
+    [rad/s], the chain's frequencies there (no torch, no solver)."""
+    from .chain import prbdm_eigenvalues
+
+    poses = np.atleast_2d(np.asarray(poses, dtype=np.float64))
+    mu = prbdm_eigenvalues(batch.x, batch.w, np.asarray(gamma, dtype=np.float64), poses)
+    k = np.repeat(np.asarray(k_rest, dtype=np.float64).reshape(-1, 1), poses.shape[0], axis=1)
+    omega = np.sqrt(mu * k[..., None] * np.asarray(batch.lambda0, dtype=np.float64)[:, None, None])
+    return k, omega
 
 
 def shape_truths(beam, gamma, poses, modes: int) -> np.ndarray:

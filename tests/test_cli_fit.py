@@ -69,10 +69,10 @@ def test_fit_with_more_modes_than_joints_in_the_json(beam_file, capsys):
     """--modes 3 with n = 2: r = min(n, modes) = 2 modes mapped, 3 truth frequencies computed
     (max(modes, n)); every pose reports its errors for the mapped modes only."""
     code = main(["fit", beam_file(TAPERED), "--joints", "2", "--modes", "3", "--starts", "4",
-                 "--json"])
+                 "--pose-target", "straight", "--json"])
     assert code == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["joints"] == 2 and out["modes"] == 2
+    assert out["joints"] == 2 and out["modes"] == 2 and out["pose_target"] == "straight"
     assert len(out["omega_truth"]) == 3
     m = len(out["k"])
     assert len(out["freq_error"]) == len(out["omega"]) == len(out["poses"]) == m > 1
@@ -84,6 +84,26 @@ def test_fit_with_more_modes_than_joints_in_the_json(beam_file, capsys):
         for j in range(2):
             assert e[j] == pytest.approx(abs(w[j] / out["omega_truth"][j] - 1), rel=1e-9,
                                          abs=1e-15)
+
+
+def test_fit_default_is_the_shape_target(beam_file, capsys):
+    """The default fit is made at rest and keeps its stiffness at every pose: one SCF repeated,
+    its answer at rest against the truth in ``rest``, the loss that of rest."""
+    code = main(["fit", beam_file(TAPERED), "--joints", "2", "--starts", "4", "--json"])
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["pose_target"] == "shape" and len(out["poses"]) > 1
+    assert len(set(out["k"])) == 1 and out["k"][0] == out["rest"]["k"]
+    for j in range(2):
+        assert out["rest"]["freq_error"][j] == pytest.approx(
+            abs(out["rest"]["omega"][j] / out["omega_truth"][j] - 1), rel=1e-9, abs=1e-15)
+    # the chain's frequencies change with the pose (its inertia does), its stiffness does not
+    assert out["omega"][0] != out["omega"][-1]
+    check = out["self_check"]["poses"]
+    if check["checked"]:
+        assert len(out["freq_error"]) == len(out["poses"])
+    else:
+        assert out["freq_error"] is None and "shell" in check["why"]
 
 
 def test_fit_subprocess_exit_code(beam_file):

@@ -626,6 +626,8 @@ meta = {
     "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
     "joints": n, "modes": r, "truth": spec["truth"], "law": spec["law"],
     "poses": poses.tolist(), "pose_spec": spec["poses"], "truth_modes": R,
+    # trained at rest: the chain's stiffness is held at every pose (prbdm.pose_target)
+    "pose_target": "shape" if spec["poses"] == "linear" else "straight",
     "features": {"spec": fspec.to_dict(), "names": names,
                  "min": feats[tr].min(0).tolist(), "max": feats[tr].max(0).tolist(),
                  "ood_margin": sg.OOD_MARGIN,

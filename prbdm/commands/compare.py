@@ -162,7 +162,8 @@ def run(args) -> int:
     Rd = min(R, len(omega_t))
     direct = pred.omega_truth[0][:Rd]
     out = {
-        "joints": n, "modes": r, "objective": sur.objective, "checkpoint": sur.describe(),
+        "joints": n, "modes": r, "objective": sur.objective, "pose_target": sur.pose_target,
+        "checkpoint": sur.describe(),
         "held_out_accuracy_at_this_width": sur.held_out_accuracy(width),
         "truth": {"model": truth.model, "reason": reason, "omega": omega_t.tolist(),
                   "freq_hz": (omega_t / (2 * math.pi)).tolist(), "time_s": truth.time_s},

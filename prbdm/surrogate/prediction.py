@@ -35,6 +35,7 @@ from ..constants import (
     SELF_CHECK_IMPLAUSIBLE,
 )
 from ..errors import BadInput
+from ..poses import is_rest
 from .checkpoint import (
     check_checkpoint,
     default_checkpoint,
@@ -162,6 +163,11 @@ class Surrogate:
             # checkpoints made before the frequency objective were trained on the paper's loss
             self.objective = str(metadata.get("objective", "eigenvalue"))
             self.poses = np.asarray(metadata["poses"], dtype=np.float64)
+            #: what the network's chain matches away from rest (prbdm.pose_target): "shape" for a
+            #: network trained at rest (its stiffness is held at every pose), "straight" for one
+            #: trained on the paper's poses (one SCF per pose)
+            self.pose_target = str(metadata.get("pose_target")
+                                   or ("shape" if is_rest(self.poses) else "straight"))
             self.modes = int(metadata["modes"])
             self.feature_spec = FeatureSpec(**metadata["features"]["spec"])
             self.norm = {k: np.asarray(v, dtype=np.float64)

@@ -381,20 +381,33 @@ def network_answer(sur, beam, allow_extrapolation: bool = False) -> dict:
     less ``input`` and ``truth_reason``)."""
     from ..chain import BeamBatch, link_table
     from ..fingerprint import beam_fingerprint
+    from ..pose_target import hold_prediction
+    from ..poses import pose_set
     from ..preflight import check_answer
     from ..truth.choice import width_ratio
 
     pred = checked_prediction(sur, beam, allow_extrapolation)
     width = width_ratio(beam)
     batch = BeamBatch.from_beams(beam)
-    links = link_table(batch, pred.gamma, pred.k)
-    omega = pred.omega[0]
     omega_t = pred.omega_truth[0]
-    # every answer checks itself: the PRBDM against the truth the same network predicted
+    # every answer checks itself: the PRBDM against the truth the same network predicted, at
+    # the poses it was trained on
     check, off = check_answer(
         pred.omega[0], omega_t, sur.modes, pred.poses,
         truth_source="the truth the network predicted",
         remedy=self_check_remedy(sur), objective=sur.objective)
+    k, poses, omega = pred.k, pred.poses, pred.omega[0]
+    if sur.pose_target == "shape":
+        # trained at rest: the stiffness is held at the paper's poses, where the chain follows
+        # the panel bent into each pose's shape (prbdm.pose_target); predict runs no solver, so
+        # those poses are not checked here
+        poses = pose_set("paper", sur.joints)
+        k, omega = hold_prediction(batch, pred.gamma, pred.k[:, 0], poses)
+        omega = omega[0]
+        check["poses"] = {"checked": False, "why": "predict runs no solver; `prbdm fit "
+                          "--pose-target shape` checks every pose against the geometrically "
+                          "exact rod bent into its shape"}
+    links = link_table(batch, pred.gamma, k)
     return {
         "beam": {"name": beam.name, "length": beam.length, "thickness": beam.thickness,
                  "mass": beam.mass, "stations": len(beam.x)},
@@ -403,8 +416,8 @@ def network_answer(sur, beam, allow_extrapolation: bool = False) -> dict:
         # the checkpoint's test on panels of this one's width, where it recorded the band
         "held_out_accuracy_at_this_width": sur.held_out_accuracy(width),
         "source": f"network {sur.name}",     # what `prbdm export --from` records as the source
-        "gamma": pred.gamma[0].tolist(), "k": pred.k[0].tolist(),
-        "poses": pred.poses.tolist(),
+        "gamma": pred.gamma[0].tolist(), "k": k[0].tolist(),
+        "poses": poses.tolist(), "pose_target": sur.pose_target,
         "omega": omega.tolist(), "freq_hz": (omega / (2 * math.pi)).tolist(),
         "omega_truth_predicted": omega_t.tolist(),
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
