@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,13 +46,116 @@ from ..geometry import (  # noqa: F401
 )
 from .result import TruthResult, check_frequencies
 
-__all__ = ["bending_frequencies", "modes_for_fit", "TruthResult", "MODELS", "MAX_MODES"]
+__all__ = ["bending_frequencies", "modes_for_fit", "TruthResult", "MODELS", "MAX_MODES",
+           "SOLVERS"]
 
-MODELS = ("analytic", "beam", "plate", "mindlin")
+
+# ----------------------------------------------------------------------------- the solver table
+# The solver modules are imported lazily (scikit-fem only when a FEM model runs): an entry's
+# ``load`` imports its solver and frequency scale when its model is asked for.
+def _load_analytic():
+    from .analytic import beam_omega_scale, solve_analytic
+    return solve_analytic, beam_omega_scale
+
+
+def _load_beam():
+    from .analytic import beam_omega_scale
+    from .beam import solve_beam
+    return solve_beam, beam_omega_scale
+
+
+def _load_plate():
+    from .plate import plate_omega_scale, solve_plate
+    return solve_plate, plate_omega_scale
+
+
+def _load_mindlin():
+    from .mindlin import solve_mindlin
+    from .plate import plate_omega_scale
+    return solve_mindlin, plate_omega_scale
+
+
+# the option checks: each raises BadInput naming its option
+def _check_selection(value):
+    from .modes import SELECTIONS
+    if value not in SELECTIONS:
+        raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, got {value!r}")
+
+
+def _check_degree(value):
+    from .mindlin import DEGREES
+    if isinstance(value, bool) or value not in DEGREES:
+        raise BadInput(f"degree: must be one of {', '.join(map(str, DEGREES))}, got {value!r}")
+
+
+def _check_shear_factor(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
+            or not 0 < value <= 1:
+        raise BadInput(f"shear_factor: must be a number in (0, 1], got {value!r}")
+
+
+@dataclass(frozen=True)
+class Solver:
+    """One truth model of :data:`SOLVERS`.
+
+    load: () -> (solve, omega_scale), the imports done when the model runs. options: the keyword
+    options it takes, each with its check (None: the solver checks it); ``defaults``: the values
+    some of them get when not given. max_modes: the most modes it may be asked for. takes: which
+    of :func:`bending_frequencies`' own arguments (``elements``, ``all_modes``) its solve takes.
+    plate_mesh: solved on the plate's half mesh (its entries list every symmetric mode, the
+    bending spectrum is taken from them, and a failed solve is a planform that cannot be solved
+    reliably). hints: options it refuses with a message of their own rather than as unknown."""
+
+    load: Callable[[], tuple[Callable, Callable]]
+    options: dict = field(default_factory=dict)
+    max_modes: int = 100
+    takes: tuple = ()
+    plate_mesh: bool = False
+    defaults: dict = field(default_factory=dict)
+    hints: dict = field(default_factory=dict)
+
+
+#: the plate's mesh options, checked by the mesher; the Mindlin plate meshes with it too
+_MESH_OPTIONS = dict.fromkeys(("mesher", "grade", "corner_ratio", "across", "smooth", "kappa",
+                               "chord_elements"))
+_PLATE_OPTIONS = {**_MESH_OPTIONS, "selection": _check_selection}
+
+#: model name -> its solver, the options it takes with their checks, its mode limit
+SOLVERS = {
+    "analytic": Solver(_load_analytic, max_modes=200),
+    "beam": Solver(_load_beam, {"grading": None}, max_modes=100, takes=("elements",)),
+    "plate": Solver(_load_plate, _PLATE_OPTIONS, max_modes=30,
+                    takes=("elements", "all_modes"), plate_mesh=True,
+                    defaults={"selection": "spectrum"}),
+    "mindlin": Solver(
+        _load_mindlin,
+        {**{k: v for k, v in _PLATE_OPTIONS.items() if k != "kappa"},
+         "degree": _check_degree, "shear_factor": _check_shear_factor},
+        max_modes=30, takes=("elements",), plate_mesh=True, defaults={"selection": "spectrum"},
+        hints={"kappa": "option 'kappa' is the plate mesher's, not the shear factor; the shear "
+                        "factor is 'shear_factor' (default 5/6)"}),
+}
+MODELS = tuple(SOLVERS)
 #: the most modes each model may be asked for
-MAX_MODES = {"analytic": 200, "beam": 100, "plate": 30, "mindlin": 30}
-#: the plate's mesh options, shared by the Mindlin plate (it meshes with plate_mesh)
-_MESH_OPTIONS = {"mesher", "grade", "corner_ratio", "across", "smooth", "kappa", "chord_elements"}
+MAX_MODES = {name: s.max_modes for name, s in SOLVERS.items()}
+
+
+def _check_options(model: str, solver: Solver, options: dict) -> dict:
+    """The options with the solver's defaults filled in, each checked; BadInput naming the first
+    one refused."""
+    for name in options:
+        if name in solver.hints:
+            raise BadInput(f"model {model!r}: {solver.hints[name]}")
+    unknown = set(options) - set(solver.options)
+    if unknown and not solver.options:
+        raise BadInput(f"model {model!r} takes no options, got {sorted(options)}")
+    if unknown:
+        raise BadInput(f"model {model!r}: unknown option {sorted(unknown)[0]!r}")
+    options = {**solver.defaults, **options}
+    for name, check in solver.options.items():
+        if check is not None and name in options:
+            check(options[name])
+    return options
 
 
 def _check_modes(model, modes):
@@ -100,9 +205,11 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     elements : mesh resolution along the span (``None``: automatic, see docs/validation.md); beam:
         base number of elements before the width grading; plate, mindlin: ``1/h0`` for the mesh
         size h0
-    options : beam: ``grading`` (bool, default True); plate: ``selection`` ("section" or
-        "participation"), and the mesh options ``grade``, ``corner_ratio``, ``across``; mindlin:
-        the plate's, plus ``degree`` (2, 3 or 4, default 4) and ``shear_factor`` (default 5/6)
+    options : beam: ``grading`` (bool, default True); plate: ``selection`` ("spectrum", the
+        default, "section" or "participation"), and the mesh options ``grade``,
+        ``corner_ratio``, ``across``; mindlin: the plate's, plus ``degree`` (2, 3 or 4, default
+        4) and ``shear_factor`` (default 5/6). Each model's options and their checks: the table
+        :data:`SOLVERS`.
 
     Returns
     -------
@@ -116,76 +223,34 @@ def bending_frequencies(beam: Beam, model: str = "beam", modes: int = 5, *,
     ``MAX_PLATE_THICKNESS_RATIO`` x full width; mindlin: the plate's limits), or a beam too
     degenerate to be solved reliably.
     """
-    if model not in MODELS:
+    if model not in SOLVERS:
         raise BadInput(f"model: must be one of {', '.join(MODELS)}, got {model!r}")
-    bending = None
+    solver = SOLVERS[model]
     modes = _check_modes(model, modes)
     check_beam(beam, model)
     if elements is not None:
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) \
                 or elements < 2:
             raise BadInput(f"elements: must be an integer >= 2 or None, got {elements!r}")
-    # the solver modules are imported lazily (scikit-fem only when a FEM model runs); the clock
-    # starts after the imports, so time_s is the time of the solve itself
-    if model == "analytic":
-        from .analytic import beam_omega_scale, solve_analytic
-        t0 = time.perf_counter()
-        if options:
-            raise BadInput(f"model 'analytic' takes no options, got {sorted(options)}")
-        out = solve_analytic(beam, modes)
-        scale = beam_omega_scale(beam)
-        symmetric_entries = None
-    elif model == "beam":
-        from .analytic import beam_omega_scale
-        from .beam import solve_beam
-        t0 = time.perf_counter()
-        unknown = set(options) - {"grading"}
-        if unknown:
-            raise BadInput(f"model 'beam': unknown option {sorted(unknown)[0]!r}")
-        out = solve_beam(beam, modes, elements=elements, **options)
-        scale = beam_omega_scale(beam)
-        symmetric_entries = None
+    solve, omega_scale = solver.load()
+    t0 = time.perf_counter()     # after the imports: time_s is the time of the solve itself
+    options = _check_options(model, solver, options)
+    given = {"elements": elements, "all_modes": all_modes}
+    args = {name: given[name] for name in solver.takes}
+    bending = symmetric_entries = None
+    if not solver.plate_mesh:
+        out = solve(beam, modes, **args, **options)
     else:
-        # plate and mindlin: the same half mesh, mesh options, mode selection and scale
-        from .modes import SELECTIONS
-        from .plate import plate_omega_scale
-        if model == "mindlin":
-            from .mindlin import DEGREES
-            from .mindlin import solve_mindlin as solve
-            own, extra = {"degree", "shear_factor"}, {}
-        else:
-            from .plate import solve_plate as solve
-            own, extra = set(), {"all_modes": all_modes}
-        t0 = time.perf_counter()
-        if model == "mindlin" and "kappa" in options:   # the mesher's, not the shear factor
-            raise BadInput("model 'mindlin': option 'kappa' is the plate mesher's, not the "
-                           "shear factor; the shear factor is 'shear_factor' (default 5/6)")
-        unknown = set(options) - _MESH_OPTIONS - {"selection"} - own
-        if unknown:
-            raise BadInput(f"model {model!r}: unknown option {sorted(unknown)[0]!r}")
-        options.setdefault("selection", "spectrum")
-        if options["selection"] not in SELECTIONS:
-            raise BadInput(f"selection: must be one of {', '.join(SELECTIONS)}, "
-                           f"got {options['selection']!r}")
-        if model == "mindlin":
-            degree = options.get("degree", 4)
-            if isinstance(degree, bool) or degree not in DEGREES:
-                raise BadInput(f"degree: must be one of {', '.join(map(str, DEGREES))}, "
-                               f"got {degree!r}")
-            kappa = options.get("shear_factor", 5.0 / 6.0)
-            if isinstance(kappa, bool) or not isinstance(kappa, (int, float, np.floating)) \
-                    or not 0 < kappa <= 1:
-                raise BadInput(f"shear_factor: must be a number in (0, 1], got {kappa!r}")
         try:
-            out = solve(beam, modes, elements=elements, **extra, **options)
+            out = solve(beam, modes, **args, **options)
         except (ValueError, ArithmeticError, RuntimeError) as exc:
             raise BadInput(f"model {model!r}: this planform cannot be solved reliably ({exc})") \
                 from None
-        # lambda = (omega / omega_p)^2 for both (for mindlin a function of t/L too)
-        scale = plate_omega_scale(beam)
         symmetric_entries = out["entries"]
         if options["selection"] == "spectrum":
             bending = _spectrum(model, out, modes)
+    # lambda = (omega / omega_scale)^2 (for mindlin a function of t/L too)
+    scale = omega_scale(beam)
     omega = check_frequencies(model, out["lam"], scale)
     if symmetric_entries is None:
         entries = [{"omega": float(o), "freq_hz": float(o / (2 * math.pi)), "lambda": float(l),
