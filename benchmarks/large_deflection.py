@@ -18,7 +18,8 @@ Methods:
 - ``network``: the shipped ``beam-n4`` eigenvalue network's gamma and per-pose SCFs, with the
   same spring law as ``fit-paper``.
 
-Spring law of the per-pose SCFs (``fit-paper``, ``network``). Joint j has the potential
+Spring law of the per-pose SCFs (``fit-paper``, ``network``; :class:`prbdm.springs.InterpolatedSprings`,
+the law ``prbdm simulate`` gives a paper-pose result at large amplitude). Joint j has the potential
 
     V_j(theta) = s_j * int_0^|theta| k(u) u du,   torque  dV_j/dtheta = s_j k(|theta|) theta,
 
@@ -58,12 +59,13 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, minimize
 
+from prbdm.chain import TipLoadStatics, joint_accelerations
 from prbdm.classical import HOWELL_1R, SU_3R, joint_stiffness
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.model import BeamTensors, base_stiffness, links_from_gamma, paper_poses, uniform_gamma
 from prbdm.simulate import ChainDynamics
+from prbdm.springs import InterpolatedSprings, LinearSprings
 from prbdm.truth.rod import rod_response, rod_static
 
 DEG = math.pi / 180.0
@@ -97,77 +99,6 @@ def beams(count: int, seed: int = 0) -> list:
     return out
 
 
-# ----------------------------------------------------------------------------- spring laws
-class LinearSprings:
-    """Constant joint stiffness K (n,) [N m/rad]."""
-
-    def __init__(self, K):
-        self.K = np.asarray(K, float)
-
-    def torque(self, th):
-        return self.K * th
-
-    def dtorque(self, th):
-        return self.K.copy()
-
-    def energy(self, th):
-        return float(0.5 * np.sum(self.K * th * th))
-
-
-class InterpolatedSprings:
-    """Per-joint potential ``V_j = s_j int_0^|theta| k(u) u du``, ``k`` the pose SCFs ``k``
-    piecewise linear in the pose angles ``a`` (ascending), held constant outside them."""
-
-    def __init__(self, s, a, k):
-        self.s = np.asarray(s, float)
-        self.a = np.asarray(a, float)
-        self.k = np.asarray(k, float)
-        if self.a.size == 1:
-            self.a, self.k = np.array([0.0, 1.0]), np.repeat(self.k, 2)
-        # energy per unit s at the pose angles: int_0^a k(u) u du
-        a, k = self.a, self.k
-        e = [0.5 * k[0] * a[0] ** 2]
-        for i in range(a.size - 1):
-            e.append(e[-1] + self._seg(a[i], a[i + 1], k[i], k[i + 1], a[i + 1]))
-        self.e = np.array(e)
-
-    @staticmethod
-    def _seg(a0, a1, k0, k1, u):
-        """int_a0^u (k0 + (k1 - k0)(v - a0)/(a1 - a0)) v dv."""
-        sl = (k1 - k0) / (a1 - a0)
-        c = k0 - sl * a0
-        return c * (u * u - a0 * a0) / 2 + sl * (u ** 3 - a0 ** 3) / 3
-
-    def kval(self, u):
-        return np.interp(u, self.a, self.k)
-
-    def kslope(self, u):
-        i = np.clip(np.searchsorted(self.a, u, side="right") - 1, 0, self.a.size - 2)
-        sl = (self.k[i + 1] - self.k[i]) / (self.a[i + 1] - self.a[i])
-        return np.where((u < self.a[0]) | (u > self.a[-1]), 0.0, sl)
-
-    def torque(self, th):
-        return self.s * self.kval(np.abs(th)) * th
-
-    def dtorque(self, th):
-        u = np.abs(th)
-        return self.s * (self.kval(u) + self.kslope(u) * u)
-
-    def energy(self, th):
-        total = 0.0
-        for sj, t in zip(self.s, np.abs(th)):
-            a, k = self.a, self.k
-            if t <= a[0]:
-                v = 0.5 * k[0] * t * t
-            elif t >= a[-1]:
-                v = self.e[-1] + 0.5 * k[-1] * (t * t - a[-1] ** 2)
-            else:
-                i = int(np.searchsorted(a, t, side="right") - 1)
-                v = self.e[i] + self._seg(a[i], a[i + 1], k[i], k[i + 1], t)
-            total += sj * v
-        return float(total)
-
-
 # ----------------------------------------------------------------------------- the chain
 @dataclass
 class Chain:
@@ -191,96 +122,34 @@ class Chain:
     def tip_angle(self, th):
         return float(np.sum(th))
 
-    # statics -------------------------------------------------------------------------
-    def _grad_hess(self, th, F):
-        q = np.cumsum(th)
-        ell = self.dyn.length
-        # d r_tip / d theta_k = sum_{j>=k} ell_j n(q_j)
-        fn = ell * (-F[0] * np.sin(q) + F[1] * np.cos(q))          # F . n_j ell_j
-        fe = ell * (F[0] * np.cos(q) + F[1] * np.sin(q))           # F . e_j ell_j
-        g = self.springs.torque(th) - np.cumsum(fn[::-1])[::-1]
-        tail = np.cumsum(fe[::-1])[::-1]
-        idx = np.maximum.outer(np.arange(self.n), np.arange(self.n))
-        H = tail[idx] + np.diag(self.springs.dtorque(th))
-        return g, H
-
-    def potential(self, th, F):
-        return self.springs.energy(th) - float(np.dot(F, self.tip(th)))
+    # statics: prbdm.chain.TipLoadStatics -----------------------------------------------
+    @property
+    def statics(self) -> TipLoadStatics:
+        return TipLoadStatics(self.dyn.length, self.springs, self.x1, self.name)
 
     def equilibrium(self, F, th0):
         """Minimum of the potential energy under the dead tip force F [N] near ``th0``."""
-        F = np.asarray(F, float)
-        scale = max(float(np.max(self.springs.dtorque(np.zeros(self.n)))), 1e-300)
-        res = minimize(lambda t: self.potential(t, F) / scale, np.array(th0, float),
-                       jac=lambda t: self._grad_hess(t, F)[0] / scale,
-                       hess=lambda t: self._grad_hess(t, F)[1] / scale,
-                       method="trust-exact", options={"gtol": 1e-12, "maxiter": 500})
-        th = res.x
-        for _ in range(5):                      # Newton polish
-            g, H = self._grad_hess(th, F)
-            th = th - np.linalg.solve(H, g)
-        g, H = self._grad_hess(th, F)
-        if np.max(np.abs(g)) / scale > 1e-9 or np.linalg.eigvalsh(H)[0] <= 0:
-            raise RuntimeError(f"{self.name}: no stable equilibrium found under F = {F}")
-        return th
+        return self.statics.equilibrium(F, th0)
 
     def step_to(self, F0, th0, F1):
         """Equilibrium under F1 continued from (F0, th0), with sub-steps where needed."""
-        F0, F1 = np.asarray(F0, float), np.asarray(F1, float)
-        steps = 1
-        while True:
-            try:
-                t = np.array(th0, float)
-                for s in range(1, steps + 1):
-                    t = self.equilibrium(F0 + (F1 - F0) * s / steps, t)
-                return t
-            except RuntimeError:
-                steps *= 4
-                if steps > 256:
-                    raise
+        return self.statics.step_to(F0, th0, F1)
 
     def path(self, forces):
         """Equilibria along a sequence of forces (rows), by continuation from the unloaded chain."""
-        th, Fprev, out = np.zeros(self.n), np.zeros(2), []
-        for F in np.asarray(forces, float):
-            th = self.step_to(Fprev, th, F)
-            Fprev = F
-            out.append(th.copy())
-        return out
+        return self.statics.path(forces)
 
     def release_shape(self, target, force_angle=math.pi / 2, load_guess=None):
         """Equilibrium under a tip force at ``force_angle`` whose tip angle is ``target`` [rad];
         returns (theta, force magnitude). ``load_guess`` [N] sets the load steps."""
-        d = np.array([math.cos(force_angle), math.sin(force_angle)])
-        step = (load_guess or 1.0) / 8
-        lo, th_lo, hi = 0.0, np.zeros(self.n), None
-        for _ in range(400):           # march the load up until the tip angle passes the target
-            th_t = self.step_to(d * lo, th_lo, d * (lo + step))
-            if self.tip_angle(th_t) >= target:
-                hi = lo + step
-                break
-            lo, th_lo = lo + step, th_t
-        if hi is None:
-            raise RuntimeError(f"{self.name}: tip angle {target} not reached")
-
-        def miss(P):
-            t = self.step_to(d * lo, th_lo, d * P)
-            return self.tip_angle(t) - target
-        Ps = brentq(miss, lo, hi, xtol=1e-15 * hi, rtol=1e-14)
-        return self.step_to(d * lo, th_lo, d * Ps), Ps
+        return self.statics.release_shape(target, force_angle, load_guess)
 
     # dynamics -------------------------------------------------------------------------
     def rhs(self, t, y):
-        n, A = self.n, self.dyn.A
+        n = self.n
         th, thd = y[:n], y[n:]
-        q, qd = np.cumsum(th), np.cumsum(thd)
-        dq = q[:, None] - q[None, :]
-        Q = -self.springs.torque(th)
-        Qq = Q.copy()
-        Qq[:-1] -= Q[1:]
-        h = (A * np.sin(dq)) @ (qd * qd)
-        qdd = np.linalg.solve(A * np.cos(dq), Qq - h)
-        return np.concatenate([thd, np.diff(qdd, prepend=0.0)])
+        return np.concatenate([thd, joint_accelerations(self.dyn.A, th, thd,
+                                                        -self.springs.torque(th))])
 
     def energy(self, th, thd):
         return float(0.5 * thd @ self.dyn.mass_matrix(th) @ thd) + self.springs.energy(th)

@@ -12,10 +12,17 @@ busy machine).
 - :func:`prbdm_eigenvalues`, :func:`link_table`: the PRBDM of a batch of beams;
 - :func:`span_integrals`, :func:`links_from_gamma`, :func:`mass_matrix` and the straight-pose
   fast path (:func:`straight_mass_matrix`, :func:`straight_projected_mass`) that the features
-  use.
+  use;
+- one chain in SI, for time integration and statics (:mod:`prbdm.simulate`,
+  benchmarks/large_deflection.py): :func:`absolute_inertia` (the constant matrix of the kinetic
+  energy in absolute link angles), :func:`joint_mass_matrix`, :func:`joint_coriolis`,
+  :func:`joint_accelerations` (Lagrange's equations in closed form), :func:`tip_position`, and
+  :class:`TipLoadStatics` (equilibria under a dead tip force, with any spring law of
+  :mod:`prbdm.springs`).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -312,3 +319,186 @@ def loss_percent_np(omega_or_lam_pose, lam_truth, r: int, is_lambda: bool = True
     ref = lam_truth[..., None, :r]
     rel = np.linalg.norm(lam[..., :r] - ref, axis=-1) / np.linalg.norm(ref, axis=-1)
     return 100.0 * rel.mean(-1)
+
+
+# ----------------------------------------------------------------------------- a chain in SI
+# The dynamics and statics of one planar chain of rigid links 1..n (link 0 clamped), SI units,
+# relative joint angles theta: used by :mod:`prbdm.simulate` and benchmarks/large_deflection.py.
+# A spring law (:mod:`prbdm.springs`) is any object with ``torque(theta)``, ``dtorque(theta)``
+# (the diagonal of its stiffness) and ``energy(theta)``.
+def absolute_inertia(length, com, mass, inertia) -> np.ndarray:
+    """The constant matrix A (n, n) [kg m^2] of the chain's kinetic energy in the absolute link
+    angles ``q_j = theta_1 + ... + theta_j``:
+
+        T = 1/2 sum_ab A_ab cos(q_a - q_b) q'_a q'_b,   A_ab = sum_j m_j L_ja L_jb + delta_ab J_a,
+
+    ``L_ja`` the lever of link a's rate on the centre of link j (the length of link a for a < j,
+    the centre offset ``com_j`` for a = j, 0 beyond). length, com (from the link's joint), mass,
+    inertia (about the centre): (n,) for links 1..n."""
+    length, com = np.asarray(length, float), np.asarray(com, float)
+    mass, inertia = np.asarray(mass, float), np.asarray(inertia, float)
+    n = length.size
+    Lm = np.zeros((n, n))                      # L[j, a]: lever of link a's rate on centre j
+    for j in range(n):
+        Lm[j, :j] = length[:j]
+        Lm[j, j] = com[j]
+    return np.einsum("j,ja,jb->ab", mass, Lm, Lm) + np.diag(inertia)
+
+
+def joint_mass_matrix(A, theta) -> np.ndarray:
+    """M(theta) = T^T (A o cos(q_a - q_b)) T [kg m^2] in the relative angles theta (n,); equals
+    :func:`prbdm.model.mass_matrix` in SI (tests/test_simulate.py)."""
+    q = np.cumsum(theta)
+    n = q.size
+    T = np.tril(np.ones((n, n)))
+    return T.T @ (A * np.cos(q[:, None] - q[None, :])) @ T
+
+
+def joint_coriolis(A, theta, theta_dot) -> np.ndarray:
+    """The Coriolis/centrifugal term C(theta, theta') theta' [N m] in joint coordinates,
+    ``T^T sum_b A_ab sin(q_a - q_b) q'_b^2`` (the Christoffel symbols of M in closed form;
+    equals the one from autograd of the kinetic energy, tests/test_simulate.py)."""
+    q, qd = np.cumsum(theta), np.cumsum(theta_dot)
+    h = (A * np.sin(q[:, None] - q[None, :])) @ (qd * qd)
+    return np.cumsum(h[::-1])[::-1]            # T^T h
+
+
+def joint_accelerations(A, theta, theta_dot, torque) -> np.ndarray:
+    """theta'' (n,) of the chain under joint torques ``torque`` (n,) [N m] (springs, damping,
+    drive): Lagrange's equations in the absolute angles,
+    ``sum_b A_ab cos(q_a - q_b) q''_b + sum_b A_ab sin(q_a - q_b) q'_b^2 = Q_a`` with
+    ``Q_a = tau_a - tau_{a+1}``, solved for q'' and mapped back (microseconds, no torch)."""
+    q, qd = np.cumsum(theta), np.cumsum(theta_dot)
+    dq = q[:, None] - q[None, :]
+    Qq = torque.copy()
+    Qq[:-1] -= torque[1:]                      # generalised forces on q: T^-T tau
+    h = (A * np.sin(dq)) @ (qd * qd)
+    qdd = np.linalg.solve(A * np.cos(dq), Qq - h)
+    return np.diff(qdd, prepend=0.0)
+
+
+def tip_position(length, theta):
+    """Tip (x, z) [m] relative to joint 1 for theta (..., n): the sum of the link vectors."""
+    q = np.cumsum(theta, axis=-1)
+    return np.sum(length * np.cos(q), axis=-1), np.sum(length * np.sin(q), axis=-1)
+
+
+@dataclass
+class TipLoadStatics:
+    """Static equilibria of the chain (links 1..n of lengths ``length`` [m], joint 1 at
+    ``(x1, 0)``) with joint springs ``springs`` under a dead tip force F = (F_x, F_z) [N]: the
+    minima of the potential ``V(theta) = springs.energy(theta) - F . r_tip(theta)``."""
+
+    length: np.ndarray
+    springs: object
+    x1: float = 0.0
+    name: str = "chain"
+
+    def __post_init__(self):
+        self.length = np.asarray(self.length, float)
+
+    @property
+    def n(self) -> int:
+        return self.length.size
+
+    def tip(self, th) -> np.ndarray:
+        x, z = tip_position(self.length, th)
+        return np.array([x + self.x1, z])
+
+    @staticmethod
+    def tip_angle(th) -> float:
+        return float(np.sum(th))
+
+    def potential(self, th, F) -> float:
+        return self.springs.energy(th) - float(np.dot(F, self.tip(th)))
+
+    def gradient_hessian(self, th, F):
+        """(dV/dtheta, d2V/dtheta2) of the potential under the dead tip force F."""
+        q = np.cumsum(th)
+        ell = self.length
+        # d r_tip / d theta_k = sum_{j>=k} ell_j n(q_j)
+        fn = ell * (-F[0] * np.sin(q) + F[1] * np.cos(q))          # F . n_j ell_j
+        fe = ell * (F[0] * np.cos(q) + F[1] * np.sin(q))           # F . e_j ell_j
+        g = self.springs.torque(th) - np.cumsum(fn[::-1])[::-1]
+        tail = np.cumsum(fe[::-1])[::-1]
+        idx = np.maximum.outer(np.arange(self.n), np.arange(self.n))
+        H = tail[idx] + np.diag(self.springs.dtorque(th))
+        return g, H
+
+    def equilibrium(self, F, th0) -> np.ndarray:
+        """Minimum of the potential under the dead tip force F [N] near ``th0`` (trust-region
+        Newton, then Newton steps); RuntimeError where none is found or it is not stable."""
+        from scipy.optimize import minimize
+
+        F = np.asarray(F, float)
+        scale = max(float(np.max(self.springs.dtorque(np.zeros(self.n)))), 1e-300)
+        res = minimize(lambda t: self.potential(t, F) / scale, np.array(th0, float),
+                       jac=lambda t: self.gradient_hessian(t, F)[0] / scale,
+                       hess=lambda t: self.gradient_hessian(t, F)[1] / scale,
+                       method="trust-exact", options={"gtol": 1e-12, "maxiter": 500})
+        th = res.x
+        for _ in range(5):                      # Newton polish
+            g, H = self.gradient_hessian(th, F)
+            th = th - np.linalg.solve(H, g)
+        g, H = self.gradient_hessian(th, F)
+        if np.max(np.abs(g)) / scale > 1e-9 or np.linalg.eigvalsh(H)[0] <= 0:
+            raise RuntimeError(f"{self.name}: no stable equilibrium found under F = {F}")
+        return th
+
+    def step_to(self, F0, th0, F1) -> np.ndarray:
+        """Equilibrium under F1 continued from (F0, th0), with sub-steps where needed."""
+        F0, F1 = np.asarray(F0, float), np.asarray(F1, float)
+        steps = 1
+        while True:
+            try:
+                t = np.array(th0, float)
+                for s in range(1, steps + 1):
+                    t = self.equilibrium(F0 + (F1 - F0) * s / steps, t)
+                return t
+            except RuntimeError:
+                steps *= 4
+                if steps > 256:
+                    raise
+
+    def path(self, forces) -> list:
+        """Equilibria along a sequence of forces (rows), by continuation from the unloaded
+        chain."""
+        th, Fprev, out = np.zeros(self.n), np.zeros(2), []
+        for F in np.asarray(forces, float):
+            th = self.step_to(Fprev, th, F)
+            Fprev = F
+            out.append(th.copy())
+        return out
+
+    def release_shape(self, target, force_angle=math.pi / 2, load_guess=None,
+                      measure: str = "tip_angle"):
+        """(theta, force magnitude [N]): the equilibrium under a tip force at ``force_angle``
+        [rad] whose ``measure`` (``"tip_angle"``: the last link's angle [rad]; ``"tip_z"``: the
+        tip's z [m]) is ``target``: the load is raised in steps of ``load_guess / 8`` [N] until
+        the measure passes the target, then solved for by Brent's method. RuntimeError where
+        400 steps do not reach it."""
+        from scipy.optimize import brentq
+
+        if measure not in ("tip_angle", "tip_z"):
+            raise ValueError(f"measure: 'tip_angle' or 'tip_z', got {measure!r}")
+
+        def value(th):
+            return self.tip_angle(th) if measure == "tip_angle" else float(self.tip(th)[1])
+        sign = 1.0 if target >= 0 else -1.0
+        d = np.array([math.cos(force_angle), math.sin(force_angle)])
+        step = (load_guess or 1.0) / 8
+        lo, th_lo, hi = 0.0, np.zeros(self.n), None
+        for _ in range(400):           # march the load up until the measure passes the target
+            th_t = self.step_to(d * lo, th_lo, d * (lo + step))
+            if sign * value(th_t) >= sign * target:
+                hi = lo + step
+                break
+            lo, th_lo = lo + step, th_t
+        if hi is None:
+            raise RuntimeError(f"{self.name}: {measure.replace('_', ' ')} {target} not reached")
+
+        def miss(P):
+            t = self.step_to(d * lo, th_lo, d * P)
+            return value(t) - target
+        Ps = brentq(miss, lo, hi, xtol=1e-15 * hi, rtol=1e-14)
+        return self.step_to(d * lo, th_lo, d * Ps), Ps

@@ -42,6 +42,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .chain import (
+    TipLoadStatics,
+    absolute_inertia,
+    joint_accelerations,
+    joint_coriolis,
+    joint_mass_matrix,
+    tip_position,
+)
 from .errors import BadInput
 from .preflight import DEFAULT_TOLERANCE
 from .signals import (
@@ -77,7 +85,9 @@ class ChainDynamics:
 
     length (n,) link lengths [m] (link j from joint j to joint j+1, the tip for j = n);
     com (n,) centre of mass from joint j [m]; mass (n,) [kg]; inertia (n,) about the centre
-    [kg m^2]; stiffness, damping (n,) per joint [N m/rad, N m s/rad]; springref (n,) rest angles.
+    [kg m^2]; stiffness, damping (n,) per joint [N m/rad, N m s/rad]; springref (n,) rest angles;
+    springs: the joint spring law (:mod:`prbdm.springs`; default the constant ``stiffness`` about
+    ``springref``). Its physics is :mod:`prbdm.chain`'s (``A``: :func:`prbdm.chain.absolute_inertia`).
     """
 
     length: np.ndarray
@@ -87,71 +97,58 @@ class ChainDynamics:
     stiffness: np.ndarray
     damping: np.ndarray
     springref: np.ndarray
+    springs: object = None
     A: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
+        from .springs import LinearSprings
+
         for name in ("length", "com", "mass", "inertia", "stiffness", "damping", "springref"):
             setattr(self, name, np.asarray(getattr(self, name), dtype=float))
-        n = self.n
-        Lm = np.zeros((n, n))                      # L[j, a]: lever of link a's rate on centre j
-        for j in range(n):
-            Lm[j, :j] = self.length[:j]
-            Lm[j, j] = self.com[j]
-        self.A = np.einsum("j,ja,jb->ab", self.mass, Lm, Lm) + np.diag(self.inertia)
+        if self.springs is None:
+            self.springs = LinearSprings(self.stiffness, self.springref)
+        self.A = absolute_inertia(self.length, self.com, self.mass, self.inertia)
 
     @property
     def n(self) -> int:
         return self.length.size
 
     @classmethod
-    def from_description(cls, desc: dict) -> "ChainDynamics":
-        """From :func:`prbdm.export.prbdm_from_fit`'s description."""
+    def from_description(cls, desc: dict, springs=None) -> "ChainDynamics":
+        """From :func:`prbdm.export.prbdm_from_fit`'s description; ``springs`` replaces its
+        constant hinge stiffness by another law (:func:`prbdm.springs.fitted_springs`)."""
         bodies, hinges = desc["bodies"][1:], desc["hinges"]
         return cls(length=[b["length"] for b in bodies], com=[b["com"][0] for b in bodies],
                    mass=[b["mass"] for b in bodies], inertia=[b["inertia"][1] for b in bodies],
                    stiffness=[h["stiffness"] for h in hinges],
                    damping=[h["damping"] for h in hinges],
-                   springref=[h["springref"] for h in hinges])
+                   springref=[h["springref"] for h in hinges], springs=springs)
 
     def mass_matrix(self, theta) -> np.ndarray:
         """M(theta) [kg m^2], relative angles."""
-        q = np.cumsum(theta)
-        T = np.tril(np.ones((self.n, self.n)))
-        return T.T @ (self.A * np.cos(q[:, None] - q[None, :])) @ T
+        return joint_mass_matrix(self.A, theta)
 
     def coriolis(self, theta, theta_dot) -> np.ndarray:
-        """C(theta, theta') theta' [N m] in joint coordinates:
-        T^T sum_b A_ab sin(q_a - q_b) q'_b^2."""
-        q, qd = np.cumsum(theta), np.cumsum(theta_dot)
-        h = (self.A * np.sin(q[:, None] - q[None, :])) @ (qd * qd)
-        return np.cumsum(h[::-1])[::-1]            # T^T h
+        """C(theta, theta') theta' [N m] in joint coordinates."""
+        return joint_coriolis(self.A, theta, theta_dot)
 
     def rhs(self, t, y, tau=None):
         """d/dt [theta, theta'] for solve_ivp; tau(t) -> (n,) joint torques, optional."""
         n = self.n
         theta, thd = y[:n], y[n:]
-        q, qd = np.cumsum(theta), np.cumsum(thd)
-        dq = q[:, None] - q[None, :]
-        Q = -self.stiffness * (theta - self.springref) - self.damping * thd
+        Q = -self.springs.torque(theta) - self.damping * thd
         if tau is not None:
             Q = Q + tau(t)
-        Qq = Q.copy()
-        Qq[:-1] -= Q[1:]                           # generalised forces on q: T^-T Q
-        h = (self.A * np.sin(dq)) @ (qd * qd)
-        qdd = np.linalg.solve(self.A * np.cos(dq), Qq - h)
-        thdd = np.diff(qdd, prepend=0.0)
-        return np.concatenate([thd, thdd])
+        return np.concatenate([thd, joint_accelerations(self.A, theta, thd, Q)])
 
     def tip(self, theta):
         """Tip position (x relative to joint 1, z) [m] for theta (..., n)."""
-        q = np.cumsum(theta, axis=-1)
-        return (np.sum(self.length * np.cos(q), axis=-1), np.sum(self.length * np.sin(q), axis=-1))
+        return tip_position(self.length, theta)
 
     def energy(self, theta, theta_dot) -> float:
         """Kinetic + spring energy [J]."""
         M = self.mass_matrix(theta)
-        d = np.asarray(theta) - self.springref
-        return float(0.5 * theta_dot @ M @ theta_dot + 0.5 * np.sum(self.stiffness * d * d))
+        return float(0.5 * theta_dot @ M @ theta_dot) + self.springs.energy(np.asarray(theta))
 
     def linear_frequencies(self, theta=None) -> np.ndarray:
         """omega [rad/s] of K v = lambda M(theta) v (default about the spring reference)."""
@@ -182,6 +179,11 @@ class ChainDynamics:
         s = brentq(lambda s: self.tip(s * shape)[1] - deflection, 0.0, s_hi,
                    xtol=1e-16 * abs(s_hi), rtol=1e-15)
         return s * shape
+
+    def statics(self, x1: float = 0.0) -> TipLoadStatics:
+        """Its equilibria under a dead tip force (:class:`prbdm.chain.TipLoadStatics`; joint 1
+        at ``(x1, 0)``), with its spring law."""
+        return TipLoadStatics(self.length, self.springs, x1, "the PRBDM")
 
     def impulse_velocity(self, impulse: float) -> np.ndarray:
         """theta'(0) after a tip impulse P [N s] (along z) on the straight chain at rest."""
