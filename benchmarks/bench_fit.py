@@ -21,7 +21,7 @@ import numpy as np
 import torch
 from scipy.optimize import minimize
 
-from prbdm.fit import DEFAULT_STARTS, fit_many, fit_prbdm, gamma_from_z, start_points
+from prbdm.fit import DEFAULT_STARTS, FitProblem, fit_many, fit_prbdm, gamma_from_z, start_points
 from prbdm.geometry import random_beam
 from prbdm.model import GAMMA_MAX, GAMMA_MIN, BeamTensors, eigenvalues, loss_percent, make_poses
 from prbdm.truth import bending_frequencies
@@ -90,7 +90,7 @@ def main():
     t_single = (time.perf_counter() - t0) / len(beams)
     c_single = (time.process_time() - c0) / len(beams)
     t0, c0 = time.perf_counter(), time.process_time()
-    batched = fit_many(beams, omega, joints=n, starts=args.starts)
+    batched = fit_many(FitProblem(beams, omega, n), starts=args.starts)
     t_batch = (time.perf_counter() - t0) / len(beams)
     c_batch = (time.process_time() - c0) / len(beams)
 

@@ -33,6 +33,8 @@ from prbdm import surrogate as sg
 from prbdm.fit import (
     FIXED_STARTS,
     REFINE_CANDIDATES,
+    FitProblem,
+    StopRules,
     fit_many,
     gamma_from_z,
     refine_starts,
@@ -103,10 +105,11 @@ def main():
             label = f"{name} ({starts.shape[1]} starts), {it} it."
         loss, times = [], []
         for i in range(0, B, args.batch):
-            kw = {} if starts is None else dict(init_gamma=starts[i:i + args.batch], max_iter=it)
+            kw = {} if starts is None else dict(init_gamma=starts[i:i + args.batch],
+                                                stop=StopRules(max_iter=it))
             t0 = time.perf_counter()
-            res = fit_many(beams[i:i + args.batch], omega[i:i + args.batch], joints=n, modes=r,
-                           law=sur.law, poses=sur.poses.tolist(), **kw)
+            res = fit_many(FitProblem(beams[i:i + args.batch], omega[i:i + args.batch], n, r,
+                                      sur.law, sur.poses.tolist()), **kw)
             times.append(time.perf_counter() - t0)
             loss += [x.loss_percent for x in res]
         loss, t = np.array(loss), sum(times) / B

@@ -19,7 +19,7 @@ import time
 import numpy as np
 import torch
 
-from prbdm.fit import default_starts, fit_many, fit_prbdm
+from prbdm.fit import FitProblem, StopRules, default_starts, fit_many, fit_prbdm
 from prbdm.geometry import Beam, random_beam
 from prbdm.truth import bending_frequencies
 
@@ -90,7 +90,7 @@ def random_distribution(count, seed):
         t0 = time.perf_counter()
         res = []
         for i in range(0, count, 10):
-            res += fit_many(beams[i:i + 10], omega[i:i + 10], joints=n, modes=n)
+            res += fit_many(FitProblem(beams[i:i + 10], omega[i:i + 10], n, n))
         dt = (time.perf_counter() - t0) / count
         loss = np.array([r.loss_percent for r in res])
         ferr = np.array([r.freq_error.max() for r in res]) * 100
@@ -109,11 +109,11 @@ def global_quality(count, seed, n, objective="eigenvalue"):
     omega = np.stack([bending_frequencies(b, model="beam", modes=n).omega for b in beams])
     S = default_starts(n)
     t0 = time.perf_counter()
-    default = fit_many(beams, omega, joints=n, objective=objective)
+    default = fit_many(FitProblem(beams, omega, n, objective=objective))
     t_def = (time.perf_counter() - t0) / count
     t0 = time.perf_counter()
-    long = fit_many(beams, omega, joints=n, starts=10 * S, max_iter=1500, seed=seed + 1,
-                    objective=objective)
+    long = fit_many(FitProblem(beams, omega, n, objective=objective), starts=10 * S,
+                    seed=seed + 1, stop=StopRules(max_iter=1500))
     t_long = (time.perf_counter() - t0) / count
     excess = np.array([minimised(d) / l.best_objective_percent - 1 for d, l in zip(default, long)])
     print(f"global quality, {objective} objective, n = {n}, {count} beams: default ({S} starts, 150 iterations, "
@@ -149,16 +149,16 @@ def start_design(count, seed, n, repeats, objective="eigenvalue"):
         try:
             t0 = time.process_time()
             loss[name] = np.array([[minimised(r) for i in range(0, count, 8)
-                                    for r in fit_many(beams[i:i + 8], omega[i:i + 8], joints=n,
-                                                      modes=n, seed=s, objective=objective)]
+                                    for r in fit_many(FitProblem(beams[i:i + 8], omega[i:i + 8],
+                                                                 n, n, objective=objective),
+                                                      seed=s)]
                                    for s in range(repeats)])
             t = (time.process_time() - t0) / count / repeats
         finally:
             fit_module.start_points = ours
         loss[name] = (loss[name], t)
-    big = np.array([fit_many([b], omega[i:i + 1], joints=n, modes=n,
-                             starts=10 * default_starts(n), seed=10 ** 6,
-                             objective=objective)[0].best_objective_percent
+    big = np.array([fit_many(FitProblem([b], omega[i:i + 1], n, n, objective=objective),
+                             starts=10 * default_starts(n), seed=10 ** 6)[0].best_objective_percent
                     for i, b in enumerate(beams)])
     ref = np.minimum(big, np.min([v.min(0) for v, _ in loss.values()], 0))
     print(f"start design, {objective} objective, n = {n}: {count} beams of seed {seed} x {repeats} fit seeds, "

@@ -23,7 +23,7 @@ import torch
 
 from prbdm import Beam, surrogate
 from prbdm.export import export
-from prbdm.fit import fit_many, fit_prbdm
+from prbdm.fit import FitProblem, StopRules, fit_many, fit_prbdm
 from prbdm.truth import bending_frequencies
 
 
@@ -109,7 +109,7 @@ def main(argv=None) -> dict:
     rows = np.linspace(0, len(check) - 1, min(args.fits, len(check))).round().astype(int)
     fitted = check[rows]                            # spread over the checked designs
     t0 = time.process_time()
-    fits = fit_many([designs[i] for i in fitted], truth[rows], joints=4, modes=4, seed=0)
+    fits = fit_many(FitProblem([designs[i] for i in fitted], truth[rows], joints=4, modes=4), seed=0)
     t_fit = (time.process_time() - t0) / len(fitted)
     f_fit = np.array([f.omega[0] for f in fits]) / two_pi
     loss_fit = np.array([f.loss_percent for f in fits])
@@ -157,7 +157,7 @@ def main(argv=None) -> dict:
     # one start from the network's gamma, matched to the network's own frequencies (still no FEM).
     t0 = time.process_time()
     lin = fit_prbdm(designs[best], pred.omega_truth[best], joints=4, poses="linear",
-                    init_gamma=[pred.gamma[best]], max_iter=30)
+                    init_gamma=[pred.gamma[best]], stop=StopRules(max_iter=30))
     t_lin = time.process_time() - t0
     # the same keys as `prbdm fit --json` and `prbdm predict --json`
     chain = {"gamma": lin.gamma, "k": lin.k, "poses": lin.poses, "law": lin.law,

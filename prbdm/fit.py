@@ -33,9 +33,12 @@ that labels of flat-valley beams are reproducible and vary smoothly with the geo
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import torch
@@ -55,9 +58,9 @@ from .model import (
     uniform_gamma,
 )
 
-__all__ = ["FitResult", "fit_prbdm", "fit_many", "refine_starts", "REFINE_CANDIDATES",
-           "REFINE_ITER", "gamma_from_z",
-           "z_from_gamma", "start_points", "long_root_gamma", "DEFAULT_STARTS", "StopRules"]
+__all__ = ["FitResult", "fit_prbdm", "fit_many", "FitProblem", "StopRules", "refine_starts",
+           "REFINE_CANDIDATES", "REFINE_ITER", "gamma_from_z", "z_from_gamma", "start_points",
+           "long_root_gamma", "DEFAULT_STARTS"]
 
 from .constants import DEFAULT_STARTS, REFINE_CANDIDATES, REFINE_ITER  # noqa: E402
 
@@ -248,19 +251,45 @@ def _gauss_newton(beam, z, poses, lam_truth, r, law, h=1e-6, objective="eigenval
 
 
 @dataclass(frozen=True)
-class StopRules:
-    """When the batched BFGS (:func:`_bfgs`) stops a row (one start of one beam) or a beam.
+class FitProblem:
+    """What :func:`fit_many` fits: B beams and their truth, the chain and what is compared.
 
-    A row stops when it has converged (a relative decrease below ``ftol``, ``stall`` iterations
+    beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
+    [rad/s], ascending (an array, or a torch tensor: the fit then runs where it is); joints: n;
+    modes: how many truth modes to map (r = min(joints, modes), default joints); law: the base
+    joint stiffness law (:data:`prbdm.model.LAWS`); poses: the poses' name or angles
+    (:func:`prbdm.model.make_poses`); objective: what is minimised, ``"eigenvalue"`` (the paper's
+    loss) or ``"frequency"`` (the worst relative frequency error per pose, see
+    :mod:`prbdm.objectives`); every result reports both. Checked by :func:`fit_many`."""
+
+    beams: Sequence
+    omega_truth: Any
+    joints: int
+    modes: int | None = None
+    law: str = "beam"
+    poses: Any = "paper"
+    objective: str = "eigenvalue"
+
+
+@dataclass(frozen=True)
+class StopRules:
+    """When the multistart stops, and which of its best starts it reports.
+
+    ``max_iter``: the most BFGS iterations. Among the starts whose loss is within ``rep_rtol`` of
+    its beam's best, the one reported is the closest to the rigid-finite-element segmentation
+    (module docstring). The rest say when the batched BFGS (:func:`_bfgs`) stops a row (one start
+    of one beam) or a beam. A row stops when it has converged (a relative decrease below ``ftol``, ``stall`` iterations
     in a row, or less than ``window_rtol`` relative progress over the last ``window``
     iterations), when a better row of its beam is in the same valley (within ``merge_tol`` in
     gamma, max-norm), when its beam's ``quorum`` best rows agree (within ``agree_rtol``) and have
     converged, or when it is behind: at its pace over the last ``window`` iterations it would not
     come within ``behind_rtol`` of its beam's best loss before ``max_iter``. The merge and quorum
-    checks run every ``check_every`` iterations (they compare all rows of a beam)."""
+    checks run every ``check_every`` iterations (they compare all rows of a beam). ``quorum``
+    None: max(3, S // 16) of a beam's S starts."""
 
     max_iter: int = 150
-    quorum: int = 3
+    rep_rtol: float = 1e-3
+    quorum: int | None = None
     agree_rtol: float = 1e-3
     ftol: float = 1e-9
     stall: int = 3
@@ -500,31 +529,32 @@ def _polish(beam, z, poses, lam_truth, r, law, iters=8, objective="eigenvalue"):
     return z, f
 
 
-def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
-             poses="paper", starts: int | None = None, seed: int = 0, max_iter: int = 150,
-             rep_rtol: float = 1e-3, quorum: int | None = None,
-             init_gamma=None, objective: str = "eigenvalue", device=None,
-             progress=None) -> list[FitResult]:
+def fit_many(problem: FitProblem, *, starts: int | None = None, seed=0, init_gamma=None,
+             stop: StopRules | None = None, device=None, progress=None) -> list[FitResult]:
     """Fit n-joint PRBDMs to several beams at once (all starts of all beams in one batch).
 
-    beams: sequence of :class:`prbdm.geometry.Beam`; omega_truth: (B, R) truth frequencies
-    [rad/s], ascending; modes: how many truth modes to map (r = min(joints, modes), default
-    joints); starts: per beam (default :func:`default_starts`). ``seed``: one int (every beam
-    gets the same start points) or a sequence of B ints, one per beam (beam b then starts where
-    ``fit_prbdm(..., seed=seed[b])`` would). ``init_gamma`` (B, n+1) or (B, H, n+1): start every
-    beam from its own gamma(s) instead (e.g. a network's candidates, then a few iterations refine
-    them, see :func:`refine_starts`); ``starts`` is then H. ``objective``: what is minimised,
-    ``"eigenvalue"`` (the paper's loss) or ``"frequency"`` (the worst relative frequency error
-    per pose, see :mod:`prbdm.objectives`); every result reports both. ``device``: where the
-    fit runs (a torch device or its name); by default where ``omega_truth`` is when it is a
-    tensor, else the CPU. ``progress``: called as ``progress(iteration, max_iter)`` at each
-    iteration (a progress bar). Returns one :class:`FitResult` per beam (NumPy arrays).
+    problem: the beams, their truth and what is fitted (:class:`FitProblem`). starts: per beam
+    (default :func:`default_starts`). ``seed``: one int (every beam gets the same start points)
+    or a sequence of B ints, one per beam (beam b then starts where ``fit_prbdm(..., seed=seed[b])``
+    would). ``init_gamma`` (B, n+1) or (B, H, n+1): start every beam from its own gamma(s)
+    instead (e.g. a network's candidates, then a few iterations refine them, see
+    :func:`refine_starts`); ``starts`` is then H. ``stop``: when to stop and which start to
+    report (:class:`StopRules`; default its defaults). ``device``: where the fit runs (a torch
+    device or its name); by default where ``omega_truth`` is when it is a tensor, else the CPU.
+    ``progress``: called as ``progress(iteration, max_iter)`` at each iteration (a progress bar).
+    Returns one :class:`FitResult` per beam (NumPy arrays).
+
+    >>> fit_many(FitProblem(beams, truths, joints=4), stop=StopRules(max_iter=20))  # doctest: +SKIP
     """
     t0 = time.perf_counter()
+    stop = StopRules() if stop is None else stop
+    beams, omega_truth, joints, modes, law, poses, objective = (
+        problem.beams, problem.omega_truth, problem.joints, problem.modes, problem.law,
+        problem.poses, problem.objective)
     objectives.check_objective(objective)
     n = _check_int(joints, "joints", 1, int(1 / GAMMA_MIN) - 1)
     starts = default_starts(n) if starts is None else _check_int(starts, "starts", 1, 10 ** 6)
-    max_iter = _check_int(max_iter, "max_iter", 1, 10 ** 6)
+    max_iter = _check_int(stop.max_iter, "max_iter", 1, 10 ** 6)
     if law not in LAWS:
         raise BadInput(f"law: must be one of {', '.join(LAWS)}, got {law!r}")
     device = _fit_device(device, omega_truth)
@@ -559,15 +589,15 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
     S = z.shape[0] // B
     z = z.to(device)
     beam_of_row = torch.arange(B, device=device).repeat_interleave(S)
-    quorum = quorum or max(3, S // 16)
-    rules = StopRules(max_iter=max_iter, quorum=min(quorum, S))
-    problem = _Problem(beam=_rows(bt, beam_of_row), lam_truth=lam_hat[beam_of_row],
-                       beam_of_row=beam_of_row, n_beams=B, poses=pose_t, r=r, law=law,
-                       objective=objective)
-    z, loss, iters = _bfgs(problem, z, rules, progress)
+    rules = dataclasses.replace(stop, max_iter=max_iter,
+                                quorum=min(stop.quorum or max(3, S // 16), S))
+    batch = _Problem(beam=_rows(bt, beam_of_row), lam_truth=lam_hat[beam_of_row],
+                     beam_of_row=beam_of_row, n_beams=B, poses=pose_t, r=r, law=law,
+                     objective=objective)
+    z, loss, iters = _bfgs(batch, z, rules, progress)
     # polish each beam's near-best starts with Gauss-Newton steps
     best = torch.stack([loss[beam_of_row == bi].min() for bi in range(B)])
-    top = torch.nonzero(loss <= best[beam_of_row] * (1 + rep_rtol) + 1e-12).squeeze(-1)
+    top = torch.nonzero(loss <= best[beam_of_row] * (1 + rules.rep_rtol) + 1e-12).squeeze(-1)
     z[top], loss[top] = _polish(_rows(bt, beam_of_row[top]), z[top], pose_t,
                                 lam_hat[beam_of_row[top]], r, law, objective=objective)
     elapsed = time.perf_counter() - t0
@@ -579,13 +609,13 @@ def fit_many(beams, omega_truth, joints: int, modes: int | None = None, law: str
         gam = gamma_from_z(zb)
         best = lb.min()
         near = lb <= best * 1.01 + 1e-12
-        cand = torch.nonzero(lb <= best * (1 + rep_rtol) + 1e-12).squeeze(-1)
+        cand = torch.nonzero(lb <= best * (1 + rules.rep_rtol) + 1e-12).squeeze(-1)
         pick = cand[torch.argmin(torch.linalg.vector_norm(gam[cand] - ref, dim=-1))]
         starts_info = _StartsSummary(
             n_starts=S, n_near_best=int(near.sum()), iterations=iters, time_s=elapsed / B,
             gamma_spread=float((gam[near].max(0).values - gam[near].min(0).values).max()),
             seed=seeds[bi], best_objective_percent=float(best))
-        results.append(_result(problem, _rows(bt, torch.tensor([bi], device=device)), zb[pick],
+        results.append(_result(batch, _rows(bt, torch.tensor([bi], device=device)), zb[pick],
                                omega_truth[bi], lam_hat[bi], starts_info))
     return results
 
@@ -681,10 +711,14 @@ def refine_starts(gamma) -> np.ndarray:
 
 
 def fit_prbdm(beam, omega_truth, joints: int, modes: int | None = None, law: str = "beam",
-              poses="paper", starts: int | None = None, seed: int = 0, **kwargs) -> FitResult:
-    """Fit one beam: see :func:`fit_many`. ``omega_truth`` (R,) [rad/s]."""
+              poses="paper", starts: int | None = None, seed: int = 0, *,
+              objective: str = "eigenvalue", **options) -> FitResult:
+    """Fit one beam: ``omega_truth`` (R,) [rad/s]; the other arguments are those of
+    :class:`FitProblem` and :func:`fit_many` (``options``: ``init_gamma``, ``stop``, ``device``,
+    ``progress``)."""
     omega = np.atleast_1d(np.asarray(omega_truth, dtype=np.float64))
-    return fit_many([beam], omega[None, :], joints, modes, law, poses, starts, seed, **kwargs)[0]
+    problem = FitProblem([beam], omega[None, :], joints, modes, law, poses, objective)
+    return fit_many(problem, starts=starts, seed=seed, **options)[0]
 
 
 def _check_int(value, name, lo, hi):

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from prbdm.fit import fit_many
+from prbdm.fit import FitProblem, StopRules, fit_many
 from prbdm.geometry import random_beam
 from prbdm.model import eigenvalues, uniform_gamma
 
@@ -40,12 +40,12 @@ def cases(**fit_kwargs):
     om = np.stack([_truth(b) for b in beams])
     out = {}
     for objective in ("eigenvalue", "frequency"):
-        rs = fit_many(beams, om, joints=3, modes=4, starts=8, seed=1, max_iter=40,
-                      objective=objective, **fit_kwargs)
+        rs = fit_many(FitProblem(beams, om, 3, 4, objective=objective), starts=8, seed=1,
+                      stop=StopRules(max_iter=40), **fit_kwargs)
         out[f"{objective}-multistart"] = [_record(r) for r in rs]
         init = np.tile(uniform_gamma(3).numpy(), (2, 2, 1)) + 0.01 * np.arange(4)
-        rs = fit_many(beams, om, joints=3, modes=3, seed=[0, 1], init_gamma=init, max_iter=12,
-                      objective=objective, **fit_kwargs)
+        rs = fit_many(FitProblem(beams, om, 3, 3, objective=objective), seed=[0, 1],
+                      init_gamma=init, stop=StopRules(max_iter=12), **fit_kwargs)
         out[f"{objective}-refine"] = [_record(r) for r in rs]
     return out
 

@@ -334,16 +334,16 @@ def test_chunked_labels_equal_per_beam_fits():
     # the chunk's fit time is divided among its beams
     assert len({r["fit_time_s"] for r in together}) == 1
     # fit_many with one seed per beam: each beam starts where its own fit starts
-    from prbdm.fit import fit_many, fit_prbdm
+    from prbdm.fit import FitProblem, fit_many, fit_prbdm
 
     beams = [D.beam_for(spec, i) for i in (0, 1)]
     om = np.stack([r["omega_truth"][:2] for r in together[:2]])
-    many = fit_many(beams, om, joints=2, starts=4, seed=[11, 12])
+    many = fit_many(FitProblem(beams, om, 2), starts=4, seed=[11, 12])
     assert [r.seed for r in many] == [11, 12]
     one = fit_prbdm(beams[1], om[1], joints=2, starts=4, seed=12)
     assert np.allclose(many[1].gamma, one.gamma, atol=1e-3)
     with pytest.raises(BadInput, match="seed"):
-        fit_many(beams, om, joints=2, starts=4, seed=[1, 2, 3])
+        fit_many(FitProblem(beams, om, 2), starts=4, seed=[1, 2, 3])
 
 
 def test_chunk_failure_isolation(monkeypatch):
@@ -359,12 +359,12 @@ def test_chunk_failure_isolation(monkeypatch):
             raise RuntimeError("solver blew up")
         return real_truth(beam, **kw)
 
-    def flaky_many(beams, *a, **kw):       # fit_prbdm calls fit_many with one beam
-        if len(beams) > 1:
+    def flaky_many(problem, **kw):         # fit_prbdm calls fit_many with one beam
+        if len(problem.beams) > 1:
             raise FloatingPointError("batch went wrong")
-        if "index=2 " in beams[0].name:
+        if "index=2 " in problem.beams[0].name:
             raise ValueError("bad beam")
-        return real_many(beams, *a, **kw)
+        return real_many(problem, **kw)
 
     monkeypatch.setattr(prbdm.truth, "bending_frequencies", flaky_truth)
     monkeypatch.setattr(prbdm.fit, "fit_many", flaky_many)
@@ -403,9 +403,9 @@ def test_resume_after_crash_mid_chunk(tmp_path, monkeypatch):
 
     real_many, batches = prbdm.fit.fit_many, []
 
-    def spy(beams, *a, **kw):
-        batches.append(sorted(int(b.name.split("index=")[1].split()[0]) for b in beams))
-        return real_many(beams, *a, **kw)
+    def spy(problem, **kw):
+        batches.append(sorted(int(b.name.split("index=")[1].split()[0]) for b in problem.beams))
+        return real_many(problem, **kw)
 
     monkeypatch.setattr(prbdm.fit, "fit_many", spy)
     s = D.generate(out, 6, D.make_spec(**SPEC), workers=0, progress="none")  # set's fit_batch

@@ -14,6 +14,8 @@ from prbdm.cli import main
 from prbdm.errors import BadInput
 from prbdm.fit import (
     LONG_ROOT_RANGE,
+    FitProblem,
+    StopRules,
     fit_many,
     fit_prbdm,
     gamma_from_z,
@@ -176,7 +178,7 @@ def test_fit_command_is_reproducible_across_processes(tmp_path):
 def test_batched_fit_equals_one_at_a_time():
     beams = [random_beam(8, i) for i in range(3)]
     om = np.stack([proxy_truth(b) for b in beams])
-    together = fit_many(beams, om, joints=3, starts=12)
+    together = fit_many(FitProblem(beams, om, 3), starts=12)
     for b, o, t in zip(beams, om, together):
         alone = fit_prbdm(b, o, joints=3, starts=12)
         assert alone.best_objective_percent == pytest.approx(t.best_objective_percent, rel=1e-6)
@@ -229,8 +231,8 @@ def test_default_fit_is_globally_good():
     """Default settings reach within 1 % of a 10x longer search (10x starts, 10x iterations)."""
     beams = [random_beam(11, i) for i in range(20)]
     om = np.stack([proxy_truth(b) for b in beams])
-    default = fit_many(beams, om, joints=4)
-    long = fit_many(beams, om, joints=4, starts=640, max_iter=1500, seed=99)
+    default = fit_many(FitProblem(beams, om, 4))
+    long = fit_many(FitProblem(beams, om, 4), starts=640, seed=99, stop=StopRules(max_iter=1500))
     for d, l in zip(default, long):
         assert d.loss_percent <= 1.01 * l.best_objective_percent
 
@@ -240,10 +242,10 @@ def test_several_starts_per_beam_and_refine_starts():
     the fit's four fixed starts."""
     beams = [random_beam(0, i) for i in (1, 2)]
     om = np.stack([bending_frequencies(b, model="beam", modes=3).omega for b in beams])
-    full = fit_many(beams, om, joints=2, starts=16, seed=0)
+    full = fit_many(FitProblem(beams, om, 2), starts=16, seed=0)
     bad = np.full((2, 3), 1 / 3)                       # equal links: far from both optima
     starts = np.stack([np.stack([bad[0], f.gamma]) for f in full])       # (2, 2, 3)
-    again = fit_many(beams, om, joints=2, init_gamma=starts, max_iter=5)
+    again = fit_many(FitProblem(beams, om, 2), init_gamma=starts, stop=StopRules(max_iter=5))
     for a, f in zip(again, full):
         # a start on a bound is nudged off it (INIT_Z_FLOOR), hence not exactly the same loss
         assert a.n_starts == 2 and a.best_objective_percent <= f.best_objective_percent * (1 + 1e-4)
@@ -255,7 +257,7 @@ def test_several_starts_per_beam_and_refine_starts():
     np.testing.assert_allclose(s[:, 4], np.broadcast_to(long_root_gamma(2, 0.8), (2, 3)))
     np.testing.assert_allclose(s[:, 5], np.broadcast_to(long_root_gamma(2, 0.65), (2, 3)))
     with pytest.raises(BadInput, match="init_gamma"):
-        fit_many(beams, om, joints=2, init_gamma=np.full((3, 3), 1 / 3))
+        fit_many(FitProblem(beams, om, 2), init_gamma=np.full((3, 3), 1 / 3))
 
 
 def test_stopping_starts_that_fall_behind_keeps_the_optimum(monkeypatch):
@@ -309,7 +311,8 @@ def test_long_root_starts_find_the_long_root_optimum(monkeypatch):
 
     beam = random_beam(7, 42)
     om = proxy_truth(beam)
-    ref = fit_many([beam], om[None], joints=4, init_gamma=[[0.765, 0.033, 0.065, 0.063, 0.074]])[0]
+    ref = fit_many(FitProblem([beam], om[None], 4),
+                   init_gamma=[[0.765, 0.033, 0.065, 0.063, 0.074]])[0]
     new = fit_prbdm(beam, om, joints=4)
     assert new.loss_percent <= ref.loss_percent * 1.01
 
@@ -361,22 +364,23 @@ def test_fits_are_no_worse_than_recorded():
 def test_fit_device_follows_the_truth_tensor_and_is_numpy_out():
     beam = random_beam(3, 1)
     om = proxy_truth(beam)
-    base = fit_many([beam], om[None], joints=3, starts=4, max_iter=10)
-    on_cpu = fit_many([beam], torch.tensor(om[None]), joints=3, starts=4, max_iter=10)
-    named = fit_many([beam], om[None], joints=3, starts=4, max_iter=10, device="cpu")
+    short = StopRules(max_iter=10)
+    base = fit_many(FitProblem([beam], om[None], 3), starts=4, stop=short)
+    on_cpu = fit_many(FitProblem([beam], torch.tensor(om[None]), 3), starts=4, stop=short)
+    named = fit_many(FitProblem([beam], om[None], 3), starts=4, stop=short, device="cpu")
     for r in (on_cpu[0], named[0]):
         assert isinstance(r.gamma, np.ndarray) and isinstance(r.omega, np.ndarray)
         assert np.array_equal(r.gamma, base[0].gamma) and r.loss_percent == base[0].loss_percent
     with pytest.raises(BadInput, match="device"):
-        fit_many([beam], om[None], joints=3, starts=4, device="nowhere")
+        fit_many(FitProblem([beam], om[None], 3), starts=4, device="nowhere")
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no GPU here")
 def test_fit_on_gpu_matches_cpu():
     beam = random_beam(3, 1)
     om = proxy_truth(beam)
-    cpu = fit_many([beam], om[None], joints=3, starts=8, max_iter=40)[0]
-    gpu = fit_many([beam], torch.tensor(om[None], device="cuda"), joints=3, starts=8,
-                   max_iter=40)[0]
+    cpu = fit_many(FitProblem([beam], om[None], 3), starts=8, stop=StopRules(max_iter=40))[0]
+    gpu = fit_many(FitProblem([beam], torch.tensor(om[None], device="cuda"), 3), starts=8,
+                   stop=StopRules(max_iter=40))[0]
     assert isinstance(gpu.gamma, np.ndarray)
     assert gpu.loss_percent == pytest.approx(cpu.loss_percent, rel=1e-6)

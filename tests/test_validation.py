@@ -302,13 +302,13 @@ def test_fit_on_many_stations_reports_the_simplification(run, beam_file):
 def test_fit_progress_callback_counts_iterations():
     import torch  # noqa: F401  (prbdm.fit needs it)
 
-    from prbdm.fit import fit_prbdm
+    from prbdm.fit import StopRules, fit_prbdm
     from prbdm.truth import bending_frequencies
 
     beam = random_beam(0, 2)
     omega = bending_frequencies(beam, "beam", modes=3).omega
     seen = []
-    fit_prbdm(beam, omega, joints=3, starts=4, max_iter=20,
+    fit_prbdm(beam, omega, joints=3, starts=4, stop=StopRules(max_iter=20),
               progress=lambda i, total: seen.append((i, total)))
     assert seen and seen[0] == (1, 20)
     assert [i for i, _ in seen] == list(range(1, len(seen) + 1))

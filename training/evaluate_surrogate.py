@@ -161,7 +161,7 @@ if refine_count or refit_count:
     import torch
 
     torch.set_num_threads(threads)
-    from prbdm.fit import REFINE_CANDIDATES, fit_many, refine_starts
+    from prbdm.fit import REFINE_CANDIDATES, FitProblem, StopRules, fit_many, refine_starts
 
     poses = sur.poses.tolist()
     law = sur.law
@@ -178,18 +178,18 @@ if refine_count or refit_count:
         for g in [rows[i:i + fit_batch] for i in range(0, len(rows), fit_batch)]:
             extra = {k: (v[g] if isinstance(v, np.ndarray) else v) for k, v in options.items()}
             t0 = time.perf_counter()
-            res = fit_many([beams[i] for i in g], omega_t[g], joints=n, modes=r, law=law,
-                           poses=poses, **extra)
+            res = fit_many(FitProblem([beams[i] for i in g], omega_t[g], n, r, law, poses),
+                           **extra)
             times += [(time.perf_counter() - t0) / len(g)] * len(g)
             losses += [x.loss_percent for x in res]
         return np.array(losses), np.array(times)
 
     if refine_count:
-        lr, tr = batched_fits(pick, init_gamma=pred.gamma, max_iter=refine_iter)
+        lr, tr = batched_fits(pick, init_gamma=pred.gamma, stop=StopRules(max_iter=refine_iter))
         if refine_candidates and "gamma_candidates" in pred.extra:
             starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
             H = starts.shape[1]
-            lc, tc = batched_fits(pick, init_gamma=starts, max_iter=refine_iter)
+            lc, tc = batched_fits(pick, init_gamma=starts, stop=StopRules(max_iter=refine_iter))
             rc = lc / loss_fit[pick]
             results["refined_candidates"] = {
                 "beams": int(len(pick)), "starts": int(H), "max_iter": refine_iter,

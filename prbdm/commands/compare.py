@@ -131,7 +131,7 @@ def run(args) -> int:
     # 2-core machine
     torch.set_num_threads(1)
 
-    from ..fit import REFINE_CANDIDATES, fit_many, fit_prbdm, refine_starts
+    from ..fit import REFINE_CANDIDATES, FitProblem, StopRules, fit_many, fit_prbdm, refine_starts
 
     poses = sur.poses.tolist()
     progress, close = progress_bar("prbdm compare: fit")
@@ -145,8 +145,8 @@ def run(args) -> int:
     t0 = time.perf_counter()
     try:
         starts = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))
-        ref = fit_many([beam], omega_t[None, :], joints=n, modes=r, law=sur.law, poses=poses,
-                       init_gamma=starts, max_iter=args.refine_iter, objective=sur.objective,
+        ref = fit_many(FitProblem([beam], omega_t[None, :], n, r, sur.law, poses, sur.objective),
+                       init_gamma=starts, stop=StopRules(max_iter=args.refine_iter),
                        progress=progress)[0]
     finally:
         close()

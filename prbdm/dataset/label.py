@@ -82,10 +82,10 @@ def _fit_fields(rec: dict, fr, seed: int) -> None:
     rec["status"] = "ok"
 
 
-def _fit_kwargs(spec: dict) -> dict:
+def _problem(spec: dict) -> dict:
+    """What the spec fits: the fields of :class:`prbdm.fit.FitProblem` past the beams and truth."""
     return dict(joints=spec["joints"], modes=spec["modes"], law=spec["law"],
-                poses=spec["poses"], starts=spec["starts"],
-                objective=spec.get("objective", DEFAULT_OBJECTIVE))
+                poses=spec["poses"], objective=spec.get("objective", DEFAULT_OBJECTIVE))
 
 
 def label_beam(index: int, spec: dict) -> dict:
@@ -105,7 +105,7 @@ def label_beam(index: int, spec: dict) -> dict:
         from ..fit import fit_prbdm
 
         seed = fit_seed(spec, int(index))
-        fr = fit_prbdm(beam, omega, seed=seed, **_fit_kwargs(spec))
+        fr = fit_prbdm(beam, omega, starts=spec["starts"], seed=seed, **_problem(spec))
         _fit_fields(rec, fr, seed)
     except Exception as exc:  # noqa: BLE001 - failure isolation: record it, go on
         rec["error"] = error_text(stage[0], exc)
@@ -146,14 +146,15 @@ def label_beams(indices, spec: dict) -> list[dict]:
     if not ready:
         return records
     torch_one_thread()
-    from ..fit import fit_many, fit_prbdm
+    from ..fit import FitProblem, fit_many, fit_prbdm
 
     seeds = [fit_seed(spec, rec["index"]) for rec, _, _ in ready]
     t0, c0 = time.perf_counter(), time.thread_time()
     try:
         r = spec["modes"]
         omega = np.stack([o[:r] for _, _, o in ready])
-        results = fit_many([b for _, b, _ in ready], omega, seed=seeds, **_fit_kwargs(spec))
+        problem = FitProblem([b for _, b, _ in ready], omega, **_problem(spec))
+        results = fit_many(problem, starts=spec["starts"], seed=seeds)
     except Exception:  # noqa: BLE001 - fall back to one fit per beam, below
         results = None
     wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
@@ -163,7 +164,7 @@ def label_beams(indices, spec: dict) -> list[dict]:
         t1, c1 = time.perf_counter(), time.thread_time()
         try:
             fr = (results[j] if results is not None else
-                  fit_prbdm(beam, omega, seed=seed, **_fit_kwargs(spec)))
+                  fit_prbdm(beam, omega, starts=spec["starts"], seed=seed, **_problem(spec)))
             _fit_fields(rec, fr, seed)
         except Exception as exc:  # noqa: BLE001 - failure isolation
             rec["error"] = error_text("fit", exc)

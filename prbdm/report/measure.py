@@ -136,7 +136,7 @@ def run_report(cfg: ReportConfig) -> dict:
     torch.set_num_threads(1)    # small batched problems: one thread is faster on this machine
     from .. import classical as cl
     from .. import surrogate as sg
-    from ..fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
+    from ..fit import REFINE_CANDIDATES, REFINE_ITER, FitProblem, StopRules, fit_many, refine_starts
     from ..model import eigenvalues, uniform_gamma
     from ..truth import bending_frequencies
 
@@ -205,14 +205,14 @@ def run_report(cfg: ReportConfig) -> dict:
     fit_beams = {}
     for S in starts:
         t0 = time.perf_counter()
-        res = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, starts=S,
-                       seed=cfg.fit_seed, objective=cfg.objective)
+        res = fit_many(FitProblem(beams, om_beam, JOINTS, r, poses=poses,
+                                  objective=cfg.objective), starts=S, seed=cfg.fit_seed)
         t = (time.perf_counter() - t0) / B
         ts = []
         for i in range(single):
             t0 = time.perf_counter()
-            fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
-                     starts=S, seed=cfg.fit_seed, objective=cfg.objective)
+            fit_many(FitProblem([beams[i]], om_beam[i:i + 1], JOINTS, r, poses=poses,
+                                objective=cfg.objective), starts=S, seed=cfg.fit_seed)
             ts.append(time.perf_counter() - t0)
         fit_beams[S] = res
         add(f"fit_{S}", f"fit, {S} starts", np.stack([x.omega for x in res]), t, JOINTS,
@@ -225,8 +225,8 @@ def run_report(cfg: ReportConfig) -> dict:
         if not keep.size:
             continue
         t0 = time.perf_counter()
-        res = fit_many([beams[i] for i in keep], om_t[keep], joints=JOINTS, modes=r,
-                       poses=poses, starts=S_plate, seed=cfg.fit_seed, objective=cfg.objective)
+        res = fit_many(FitProblem([beams[i] for i in keep], om_t[keep], JOINTS, r, poses=poses,
+                                  objective=cfg.objective), starts=S_plate, seed=cfg.fit_seed)
         t = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in res])
@@ -251,15 +251,15 @@ def run_report(cfg: ReportConfig) -> dict:
     init = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))     # (B, H, n + 1) gammas
     H = init.shape[1]
     t0 = time.perf_counter()
-    best = fit_many(beams, om_beam, joints=JOINTS, modes=r, poses=poses, init_gamma=init,
-                    max_iter=REFINE_ITER, objective=cfg.objective)
+    best = fit_many(FitProblem(beams, om_beam, JOINTS, r, poses=poses, objective=cfg.objective),
+                    init_gamma=init, stop=StopRules(max_iter=REFINE_ITER))
     t_ref = (time.perf_counter() - t0) / B
     ts = []
     for i in range(single):
         t0 = time.perf_counter()
-        fit_many([beams[i]], om_beam[i:i + 1], joints=JOINTS, modes=r, poses=poses,
-                 init_gamma=init[i:i + 1], max_iter=REFINE_ITER,
-                 objective=cfg.objective)
+        fit_many(FitProblem([beams[i]], om_beam[i:i + 1], JOINTS, r, poses=poses,
+                            objective=cfg.objective),
+                 init_gamma=init[i:i + 1], stop=StopRules(max_iter=REFINE_ITER))
         ts.append(time.perf_counter() - t0)
     add("refined", f"network + refined ({H} starts, {REFINE_ITER} it.)",
         np.stack([x.omega for x in best]), t_net + t_ref, JOINTS, needs="beam",
@@ -325,7 +325,7 @@ def _panel_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
     its truth like the beam network's refinement (issue 16 item 6). Row keys start with the
     truth's name; no such network: no rows, and the tables say so."""
     from .. import surrogate as sg
-    from ..fit import REFINE_CANDIDATES, REFINE_ITER, fit_many, refine_starts
+    from ..fit import REFINE_CANDIDATES, REFINE_ITER, FitProblem, StopRules, fit_many, refine_starts
 
     name = PANEL_TRUTHS[truth]
     try:
@@ -347,9 +347,9 @@ def _panel_network(cfg: ReportConfig, beams, om_truth, ok_truth, poses, r, add,
     if keep.size:
         init = refine_starts(pred.ranked_candidates(REFINE_CANDIDATES))[keep]
         t0 = time.perf_counter()
-        best = fit_many([beams[i] for i in keep], om_truth[keep], joints=JOINTS, modes=r,
-                        poses=poses, init_gamma=init, max_iter=REFINE_ITER,
-                        objective=cfg.objective)
+        best = fit_many(FitProblem([beams[i] for i in keep], om_truth[keep], JOINTS, r,
+                                   poses=poses, objective=cfg.objective),
+                        init_gamma=init, stop=StopRules(max_iter=REFINE_ITER))
         t_ref = (time.perf_counter() - t0) / keep.size
         om = np.full((B, len(poses), JOINTS), np.nan)
         om[keep] = np.stack([x.omega for x in best])
@@ -387,7 +387,7 @@ def _panel_truth(cfg: ReportConfig, beams, model: str, r: int):
 
 def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:
     from .. import surrogate as sg
-    from ..fit import fit_many
+    from ..fit import FitProblem, fit_many
     from ..geometry import random_beam
     from ..truth import bending_frequencies
 
@@ -401,8 +401,8 @@ def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:
     rows = []
     for n in ns:
         t0 = time.perf_counter()
-        res = fit_many(sb, om, joints=n, modes=n, starts=S_n, seed=cfg.fit_seed,
-                       objective=cfg.objective)
+        res = fit_many(FitProblem(sb, om, n, n, objective=cfg.objective), starts=S_n,
+                       seed=cfg.fit_seed)
         rows.append({"n": n, "time_s": (time.perf_counter() - t0) / len(sb),
                      "loss_median": _q([x.loss_percent for x in res], 50),
                      "poses": int(res[0].poses.shape[0])})
@@ -413,8 +413,8 @@ def _scaling(cfg: ReportConfig, beams, sur, torch) -> dict:
     rows = []
     for S in Ss:
         t0 = time.perf_counter()
-        res = fit_many(sb, om[:, :MODES], joints=JOINTS, modes=MODES, starts=S,
-                       seed=cfg.fit_seed, objective=cfg.objective)
+        res = fit_many(FitProblem(sb, om[:, :MODES], JOINTS, MODES, objective=cfg.objective),
+                       starts=S, seed=cfg.fit_seed)
         rows.append({"starts": S, "time_s": (time.perf_counter() - t0) / len(sb),
                      "loss_median": _q([x.loss_percent for x in res], 50)})
     out["fit_vs_starts"] = {"rows": rows}
