@@ -30,6 +30,7 @@ import torch
 
 from prbdm import dataset as ds
 from prbdm import surrogate as sg
+from prbdm.chain import BeamBatch
 from prbdm.fit import (
     FIXED_STARTS,
     REFINE_CANDIDATES,
@@ -67,7 +68,7 @@ def main():
                                                    replace=False))
     table = table.iloc[pick].reset_index(drop=True)
     B = len(table)
-    batch = sg.BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
+    batch = BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
     pred = sur.predict(batch, warn=False)
     cand = pred.ranked_candidates()
     omega = np.stack(table["omega_truth"].to_numpy())

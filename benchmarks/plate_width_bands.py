@@ -36,6 +36,7 @@ def main(argv=None) -> int:
 
     from prbdm import dataset as ds
     from prbdm import surrogate as sg
+    from prbdm.chain import BeamBatch, loss_percent_np
     from prbdm.errors import BadInput
 
     try:
@@ -66,7 +67,7 @@ def main(argv=None) -> int:
             print(f"plate_width_bands: --auto: no panel of {args.data} is a {args.auto} panel "
                   "for --truth auto", file=sys.stderr)
             return 2
-    batch = sg.BeamBatch.from_table(t, spec["beam"]["material"])
+    batch = BeamBatch.from_table(t, spec["beam"]["material"])
     r = spec["modes"]
     omega = np.stack(t["omega_truth"].to_numpy())[:, :r]
     width = np.array([2 * max(w) for w in t["half_width"]]) / t["length"].to_numpy()
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             pred = sur.predict(batch, frequencies=True, warn=False)
-        loss = sg.loss_percent_np(pred.omega, omega ** 2, r, is_lambda=False)
+        loss = loss_percent_np(pred.omega, omega ** 2, r, is_lambda=False)
         direct = np.abs(pred.omega_truth[:, :r] / omega - 1) * 100
         rows[sur.name] = {"loss": loss, "direct": direct}
     out = {"data": args.data, "panels": len(t), "left_out_refused": int(refused.sum()),

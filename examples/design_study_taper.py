@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from prbdm import Beam, surrogate
+from prbdm.chain import loss_percent_np
 from prbdm.export import export
 from prbdm.fit import FitProblem, StopRules, fit_many, fit_prbdm
 from prbdm.truth import bending_frequencies
@@ -99,7 +100,7 @@ def main(argv=None) -> dict:
 
     def loss(omega_pose, omega_true):
         """The paper's Eq. 13 loss in %, first 4 modes, averaged over the poses."""
-        return surrogate.loss_percent_np(omega_pose ** 2, omega_true ** 2, 4)
+        return loss_percent_np(omega_pose ** 2, omega_true ** 2, 4)
 
 
     loss_net = loss(pred.omega[check], truth)

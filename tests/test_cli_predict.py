@@ -440,9 +440,10 @@ def test_objective_picks_the_checkpoint_and_a_mismatch_is_refused(capsys, beam_f
     """--objective frequency looks for TRUTH-nJOINTS-frequency; a checkpoint trained for the other
     objective, or an unknown objective, is exit 2 naming the choices (issue 18)."""
     from prbdm import surrogate as sg
+    from prbdm.surrogate.checkpoint import checkpoint_name
 
-    assert sg.checkpoint_name(4, "beam", "frequency") == "beam-n4-frequency.safetensors"
-    assert sg.checkpoint_name(4, "beam") == "beam-n4.safetensors"
+    assert checkpoint_name(4, "beam", "frequency") == "beam-n4-frequency.safetensors"
+    assert checkpoint_name(4, "beam") == "beam-n4.safetensors"
     ckpt = tiny_checkpoint(tiny_set)                                       # trained on the paper's loss
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ckpt,
                        "--objective", "frequency")
@@ -498,10 +499,10 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     assert rc == 0 and json.loads(out)["checkpoint"]["path"].endswith("mindlin-n2.safetensors")
     # a Mindlin network that cannot answer the panel (here: a training range that excludes it)
     # hands it to the Kirchhoff plate's, the nearer physics, before the beam's
-    from prbdm import surrogate as sg
-    weights, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    from prbdm.surrogate.checkpoint import read_checkpoint, save_checkpoint
+    weights, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     meta["features"]["max"] = [lo + 1e-3 for lo in meta["features"]["min"]]
-    sg.save_checkpoint(folder / "mindlin-n2.safetensors", weights, meta)
+    save_checkpoint(folder / "mindlin-n2.safetensors", weights, meta)
     rc, out, err = run(capsys, "predict", inside, "--joints", 2, "--json")
     r = json.loads(out)
     assert rc == 0 and r["checkpoint"]["path"].endswith("plate-n2.safetensors"), err
@@ -530,10 +531,11 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
 
     from prbdm import surrogate as sg
     from prbdm.constants import ACCURACY_WARN_LOSS_PERCENT
+    from prbdm.surrogate.checkpoint import PACKAGE_CHECKPOINTS, read_checkpoint, save_checkpoint
 
-    for path in sorted(sg.PACKAGE_CHECKPOINTS.glob("beam-*.safetensors")):
+    for path in sorted(PACKAGE_CHECKPOINTS.glob("beam-*.safetensors")):
         assert sg.load_checkpoint(path).accuracy_warning() is None, path
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     good = dict(meta, test=dict(meta["test"], loss_median=ACCURACY_WARN_LOSS_PERCENT / 2,
                                 freq_err_median=[1e-4] * len(meta["test"]["freq_err_median"])))
     rough = dict(good, test=dict(good["test"], loss_median=3 * ACCURACY_WARN_LOSS_PERCENT))
@@ -544,7 +546,7 @@ def test_a_checkpoint_known_to_be_rough_says_so_with_every_answer(capsys, beam_f
         sg.Surrogate(tensors, good).predict(beam)             # quiet
         with pytest.raises(sg.LowAccuracyWarning, match="rough estimate"):
             sg.Surrogate(tensors, rough).predict(beam)
-    ckpt = sg.save_checkpoint(tmp_path / "rough.safetensors", tensors, rough)
+    ckpt = save_checkpoint(tmp_path / "rough.safetensors", tensors, rough)
     rc, out, err = run(capsys, "predict", beam_file(), "--joints", 2, "--checkpoint", ckpt,
                        "--json")
     r = json.loads(out)
@@ -602,8 +604,9 @@ def test_the_accuracy_quoted_is_that_of_the_panels_own_width(capsys, beam_file, 
     from prbdm import surrogate as sg
     from prbdm.constants import ACCURACY_WARN_FREQ_PERCENT as FLIMIT
     from prbdm.constants import ACCURACY_WARN_LOSS_PERCENT as LIMIT
+    from prbdm.surrogate.checkpoint import read_checkpoint, save_checkpoint
 
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     R = len(meta["test"]["freq_err_median"])
 
     def band(lo, hi, loss, err=1e-3):
@@ -639,7 +642,7 @@ def test_the_accuracy_quoted_is_that_of_the_panels_own_width(capsys, beam_file, 
             sur.predict([narrow, ribbon, wide])              # 9x the frequency limit beats 3x
         with pytest.raises(sg.LowAccuracyWarning, match=f"median {5 * LIMIT:g} %"):
             sur.predict([narrow, middle, wide])              # the whole test's 5x beats 3x
-    ckpt = sg.save_checkpoint(tmp_path / "banded.safetensors", tensors, meta)
+    ckpt = save_checkpoint(tmp_path / "banded.safetensors", tensors, meta)
     for beam, expect, loss in ((narrow, None, LIMIT / 4), (wide, "wider than 0.4 L", 3 * LIMIT)):
         rc, out, err = run(capsys, "predict", beam_file(beam.to_dict()), "--joints", 2,
                            "--checkpoint", ckpt, "--json")
@@ -657,8 +660,9 @@ def test_the_kirchhoff_networks_judge_a_thin_panel_by_its_width(capsys, beam_fil
     0.2-0.4 L band, where their whole test (nine in ten panels over 0.4 L) was past the limits
     and warned; a panel 0.8 L wide still warns, quoting the panels over 0.4 L."""
     from prbdm import surrogate as sg
+    from prbdm.surrogate.checkpoint import PACKAGE_CHECKPOINTS
 
-    path = sg.PACKAGE_CHECKPOINTS / f"{name}.safetensors"
+    path = PACKAGE_CHECKPOINTS / f"{name}.safetensors"
     if not path.is_file():
         pytest.skip(f"{name} is not shipped")
     sur = sg.load_checkpoint(path)
@@ -686,8 +690,9 @@ def test_fewer_members_than_tested_say_so():
     """Surrogate.with_members(k) answers with fewer networks than its held-out test measured:
     its accuracy says how many of each, and its rough-estimate warning that it is the fewer."""
     from prbdm import surrogate as sg
+    from prbdm.surrogate.checkpoint import PACKAGE_CHECKPOINTS
 
-    path = sg.PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
+    path = PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
     if not path.is_file():
         pytest.skip("mindlin-n4 is not shipped")
     full = sg.load_checkpoint(path)
@@ -719,14 +724,14 @@ def test_predict_refuses_damaged_checkpoint(capsys, beam_file, tmp_path, tiny_se
 def _broken_checkpoint(tmp_path, root):
     """The tiny checkpoint with its last frequency output's bias far off, saved (and hashed) as
     if trained so: it loads, and predicts nonsense for every beam."""
-    from prbdm import surrogate as sg
+    from prbdm.surrogate.checkpoint import read_checkpoint, save_checkpoint
 
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(root))
+    tensors, meta = read_checkpoint(tiny_checkpoint(root))
     last = max((k for k in tensors if k.endswith(".bias")), key=lambda k: int(k.split(".")[-2]))
     b = tensors[last].copy()
     b[-1] += 1e4
     meta = {k: v for k, v in meta.items() if k not in ("format", "format_version")}
-    return sg.save_checkpoint(tmp_path / "broken.safetensors", dict(tensors, **{last: b}), meta)
+    return save_checkpoint(tmp_path / "broken.safetensors", dict(tensors, **{last: b}), meta)
 
 
 def test_predict_implausible_is_an_error(capsys, beam_file, tmp_path, tiny_set):
@@ -814,12 +819,12 @@ def test_fuzz_checkpoint_bytes(capsys, beam_file, tmp_path, case, tiny_set):
     without the recorded hash, so that damaged weights reach the loader's other checks."""
     from safetensors.numpy import save_file
 
-    from prbdm import surrogate as sg
+    from prbdm.surrogate.checkpoint import read_checkpoint
 
     rng = np.random.default_rng(1000 + case)
     src = tiny_checkpoint(tiny_set)
     if case % 3 == 2:
-        tensors, meta = sg.read_checkpoint(src)
+        tensors, meta = read_checkpoint(src)
         meta.pop("weights_sha256")
         src = tmp_path / "nohash.safetensors"
         save_file(tensors, str(src), metadata={"prbdm": json.dumps(meta)})

@@ -15,6 +15,12 @@ import pytest
 from prbdm import surrogate as sg
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, random_beam
+from prbdm.surrogate.checkpoint import (
+    PACKAGE_CHECKPOINTS,
+    read_checkpoint,
+    save_checkpoint,
+    weights_sha256,
+)
 from prbdm.surrogate.neighbours import (
     LIMIT_QUANTILE,
     NEIGHBOURS_TENSOR,
@@ -22,7 +28,7 @@ from prbdm.surrogate.neighbours import (
     nearest_distance,
 )
 
-SHIPPED = sorted(p.stem for p in sg.PACKAGE_CHECKPOINTS.glob("*-n*.safetensors"))
+SHIPPED = sorted(p.stem for p in PACKAGE_CHECKPOINTS.glob("*-n*.safetensors"))
 #: a narrow strip ending in a wide paddle: each feature of beam-n4 lies in its training range
 #: (the random beams reach every width in every cell), their combination in none of its
 #: training panels (nearest distance 17.0, limit 8.6 when the reference was added)
@@ -68,14 +74,14 @@ def test_the_reference_is_kept_hashed_and_checked(tmp_path):
     after saving, one without its record, or of the wrong width is refused naming the file."""
     from test_surrogate import _raw_save
 
-    tensors, meta = sg.read_checkpoint(sg.PACKAGE_CHECKPOINTS / "beam-n3.safetensors")
+    tensors, meta = read_checkpoint(PACKAGE_CHECKPOINTS / "beam-n3.safetensors")
     weights = {k: v for k, v in tensors.items() if k != NEIGHBOURS_TENSOR}
     meta = {k: v for k, v in meta.items() if k not in ("weights_sha256", "neighbours")}
     F = len(meta["features"]["names"])
     t, m = _with_reference(weights, meta, F)
-    path = sg.save_checkpoint(tmp_path / "ref.safetensors", t, m)
-    back, meta2 = sg.read_checkpoint(path)
-    assert meta2["weights_sha256"] == sg.weights_sha256(weights)
+    path = save_checkpoint(tmp_path / "ref.safetensors", t, m)
+    back, meta2 = read_checkpoint(path)
+    assert meta2["weights_sha256"] == weights_sha256(weights)
     assert np.array_equal(back[NEIGHBOURS_TENSOR], t[NEIGHBOURS_TENSOR])
     assert json.loads(path.with_suffix(".json").read_text())["neighbours"]["sha256"] == \
         meta2["neighbours"]["sha256"]
@@ -97,12 +103,12 @@ def test_the_reference_is_kept_hashed_and_checked(tmp_path):
     with pytest.raises(BadInput, match=r"shape"):
         sg.load_checkpoint(_raw_save(tmp_path / "narrow.safetensors", narrow, rehashed))
     with pytest.raises(BadInput, match="without its metadata"):
-        sg.save_checkpoint(tmp_path / "x.safetensors", t, meta)
+        save_checkpoint(tmp_path / "x.safetensors", t, meta)
 
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_checkpoints_keep_their_training_panels(name):
-    tensors, meta = sg.read_checkpoint(sg.PACKAGE_CHECKPOINTS / f"{name}.safetensors")
+    tensors, meta = read_checkpoint(PACKAGE_CHECKPOINTS / f"{name}.safetensors")
     nb = meta.get("neighbours")
     assert nb is not None, f"{name}: add it with training/add_neighbours.py"
     ref = tensors[NEIGHBOURS_TENSOR]
@@ -116,7 +122,7 @@ def test_panels_like_the_training_ones_pass_and_an_unlike_one_is_warned():
     """beam-n4: 64 random beams of seed 1 (its generator, a stream it never saw), a prismatic
     strip and a tapered one are near a training panel; the paddle, none of whose features is
     out of its range, is unlike them all: an OutOfDistributionWarning saying so."""
-    sur = sg.load_checkpoint(sg.PACKAGE_CHECKPOINTS / "beam-n4.safetensors")
+    sur = sg.load_checkpoint(PACKAGE_CHECKPOINTS / "beam-n4.safetensors")
     limit = sur.neighbours["limit"]
     like = [random_beam(1, i) for i in range(64)]
     like += [Beam(x=[0, 1], half_width=[0.1, 0.1], thickness=0.01),
@@ -173,16 +179,16 @@ def test_add_neighbours_reproduces_the_shipped_reference(tmp_path):
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "training" / "add_neighbours.py"
-    tensors, meta = sg.read_checkpoint(sg.PACKAGE_CHECKPOINTS / "beam-n3.safetensors")
+    tensors, meta = read_checkpoint(PACKAGE_CHECKPOINTS / "beam-n3.safetensors")
     weights = {k: v for k, v in tensors.items() if k != NEIGHBOURS_TENSOR}
-    bare = sg.save_checkpoint(tmp_path / "beam-n3.safetensors", weights,
-                              {k: v for k, v in meta.items()
-                               if k not in ("weights_sha256", "neighbours")})
+    bare = save_checkpoint(tmp_path / "beam-n3.safetensors", weights,
+                           {k: v for k, v in meta.items()
+                            if k not in ("weights_sha256", "neighbours")})
     run = subprocess.run([sys.executable, str(script), "--checkpoint", str(bare), "--write", "1"],
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     assert "recorded feature ranges reproduced" in run.stdout
-    back, meta2 = sg.read_checkpoint(bare)
+    back, meta2 = read_checkpoint(bare)
     assert np.array_equal(back[NEIGHBOURS_TENSOR], tensors[NEIGHBOURS_TENSOR])
     # the distances' percentiles are float64 sums in BLAS: another CPU's kernels round them
     # apart by ~1e-15 (seen with OPENBLAS_CORETYPE=Prescott); everything else equal
@@ -191,9 +197,9 @@ def test_add_neighbours_reproduces_the_shipped_reference(tmp_path):
     # a checkpoint whose recorded ranges its panels do not reproduce is refused, nothing written
     wrong = dict(meta2, features=dict(meta2["features"],
                                       min=[v - 1 for v in meta2["features"]["min"]]))
-    path = sg.save_checkpoint(tmp_path / "wrong.safetensors", weights,
-                              {k: v for k, v in wrong.items()
-                               if k not in ("weights_sha256", "neighbours")})
+    path = save_checkpoint(tmp_path / "wrong.safetensors", weights,
+                           {k: v for k, v in wrong.items()
+                            if k not in ("weights_sha256", "neighbours")})
     before = path.read_bytes()
     run = subprocess.run([sys.executable, str(script), "--checkpoint", str(path), "--write", "1"],
                          capture_output=True, text=True)

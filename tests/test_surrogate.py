@@ -22,15 +22,34 @@ import torch
 from prbdm import dataset as D
 from prbdm import model
 from prbdm import surrogate as sg
+from prbdm.chain import BeamBatch, link_table, loss_percent_np, prbdm_eigenvalues, uniform_gamma
+from prbdm.constants import GAMMA_MAX, GAMMA_MIN
 from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.surrogate import numpy_model as nm
 from prbdm.surrogate import prediction as sp
+from prbdm.surrogate.checkpoint import (
+    PACKAGE_CHECKPOINTS,
+    dataset_hash,
+    read_checkpoint,
+    save_checkpoint,
+    weights_sha256,
+)
+from prbdm.surrogate.decode import (
+    SELECT_POSES,
+    candidate_losses,
+    decode_numpy,
+    decode_torch,
+    gauss_select_poses,
+    project_k,
+)
+from prbdm.surrogate.features import FeatureSpec, feature_names, features, rfe_log_omega
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
+from prbdm.surrogate.prediction import default_threads, physical_problems
 
 REPO = Path(__file__).resolve().parents[1]
 TRAIN = REPO / "training" / "train_surrogate.py"
-SHIPPED = sg.PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
+SHIPPED = PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
 
 
 def tiny_checkpoint(root: Path) -> Path:
@@ -57,56 +76,56 @@ def test_outputs_valid_by_construction():
             "freq_std": np.ones(R)}
     tn = {key: torch.as_tensor(v) for key, v in norm.items()}
     beams = [random_beam(1, i) for i in range(8)]
-    bb = sg.BeamBatch.from_beams(beams)
-    rfe = sg.rfe_log_omega(bb, 12, R)
+    bb = BeamBatch.from_beams(beams)
+    rfe = rfe_log_omega(bb, 12, R)
     poses = model.make_poses("paper", n).numpy()
     for k_mode, H in (("direct", 1), ("projection", 1), ("projection", 3)):
         for scale in (1.0, 10.0, 30.0, 300.0):  # wild head outputs, saturated softmax included
             out = scale * rng.standard_normal((8, H * (n + 1) + m + R))
             with np.errstate(over="ignore", invalid="ignore"):
-                d = sg.decode_numpy(out, norm, n, k_mode, rfe, bb.x, bb.w, poses, 4, H)
+                d = decode_numpy(out, norm, n, k_mode, rfe, bb.x, bb.w, poses, 4, H)
             gamma = d["gamma"]
             assert np.allclose(gamma.sum(-1), 1.0, atol=1e-12)
-            assert gamma.min() >= sg.GAMMA_MIN - 1e-15 and gamma.max() <= sg.GAMMA_MAX + 1e-15
+            assert gamma.min() >= GAMMA_MIN - 1e-15 and gamma.max() <= GAMMA_MAX + 1e-15
             assert np.allclose(d["gamma_all"].sum(-1), 1.0, atol=1e-12)
             if scale > 100:      # gamma stays valid whatever the head says; k may overflow
                 continue
             k = np.exp(d["logk"])
             assert np.all(np.isfinite(k)) and np.all(k > 0)
             assert np.all(np.isfinite(d["log_omega_hat"]))
-            t = sg.decode_torch(torch.as_tensor(out), tn, n, m, k_mode, torch.as_tensor(rfe),
-                                torch.as_tensor(bb.x), torch.as_tensor(bb.w),
-                                torch.as_tensor(poses), 4, H, sg.SELECT_POSES)
+            t = decode_torch(torch.as_tensor(out), tn, n, m, k_mode, torch.as_tensor(rfe),
+                             torch.as_tensor(bb.x), torch.as_tensor(bb.w),
+                             torch.as_tensor(poses), 4, H, SELECT_POSES)
             np.testing.assert_array_equal(t["select"].numpy(), d["select"])
             np.testing.assert_allclose(t["gamma"].numpy(), gamma, atol=1e-12)
             np.testing.assert_allclose(t["logk"].numpy(), d["logk"], rtol=1e-8, atol=1e-8)
             if H > 1:     # the kept candidate is the best against the predicted frequencies
                 lam_p = np.exp(2 * d["log_omega_hat"][:, :4])
                 for h in range(H):
-                    mu_h = sg.prbdm_eigenvalues(bb.x, bb.w, d["gamma_all"][:, h],
-                                                poses[sg.SELECT_POSES])
-                    kp = sg.project_k(mu_h[..., :4], lam_p)
-                    mu_s = sg.prbdm_eigenvalues(bb.x, bb.w, gamma, poses[sg.SELECT_POSES])
-                    ks = sg.project_k(mu_s[..., :4], lam_p)
-                    loss_h = sg.loss_percent_np(mu_h * kp[..., None], lam_p, 4)
-                    loss_s = sg.loss_percent_np(mu_s * ks[..., None], lam_p, 4)
+                    mu_h = prbdm_eigenvalues(bb.x, bb.w, d["gamma_all"][:, h],
+                                             poses[SELECT_POSES])
+                    kp = project_k(mu_h[..., :4], lam_p)
+                    mu_s = prbdm_eigenvalues(bb.x, bb.w, gamma, poses[SELECT_POSES])
+                    ks = project_k(mu_s[..., :4], lam_p)
+                    loss_h = loss_percent_np(mu_h * kp[..., None], lam_p, 4)
+                    loss_s = loss_percent_np(mu_s * ks[..., None], lam_p, 4)
                     assert np.all(loss_s <= loss_h + 1e-12)
 
 
 def test_numpy_prbdm_matches_model():
     beams = [random_beam(0, i) for i in range(20)] + [
         Beam(x=[0, 0.4, 1.3], half_width=[0.2, 0.05, 0.11], thickness=0.02)]
-    bb = sg.BeamBatch.from_beams(beams)
+    bb = BeamBatch.from_beams(beams)
     bt = model.BeamTensors.from_beams(beams)
     rng = np.random.default_rng(1)
     for n in (1, 2, 4, 6):
-        g = sg.GAMMA_MIN + (1 - (n + 1) * sg.GAMMA_MIN) * rng.dirichlet(np.ones(n + 1), len(beams))
+        g = GAMMA_MIN + (1 - (n + 1) * GAMMA_MIN) * rng.dirichlet(np.ones(n + 1), len(beams))
         poses = model.make_poses("paper", n)
         ref = model.eigenvalues_unit_k(bt, torch.as_tensor(g), poses).numpy()
-        got = sg.prbdm_eigenvalues(bb.x, bb.w, g, poses.numpy())
+        got = prbdm_eigenvalues(bb.x, bb.w, g, poses.numpy())
         np.testing.assert_allclose(got, ref, rtol=1e-8)
         links_t = model.links_from_gamma(bt, torch.as_tensor(g)).physical(bt)
-        table = sg.link_table(bb, g)
+        table = link_table(bb, g)
         for key in ("joint_x", "length", "mass", "com", "area_moment"):
             np.testing.assert_allclose(table[key], links_t[key].numpy(), rtol=1e-9, atol=1e-14)
         np.testing.assert_allclose(table["inertia"], links_t["inertia"].numpy(), rtol=1e-7)
@@ -115,10 +134,10 @@ def test_numpy_prbdm_matches_model():
                                    (s_t * (bt.E * bt.thickness ** 3)[:, None]).numpy(), rtol=1e-9)
     # the straight-beam fast path of the rigid-finite-element features
     n = 11
-    g = np.broadcast_to(sg.uniform_gamma(n), (len(beams), n + 1))
+    g = np.broadcast_to(uniform_gamma(n), (len(beams), n + 1))
     ref = model.eigenvalues_unit_k(bt, torch.as_tensor(np.ascontiguousarray(g)),
                                    torch.zeros(1, n)).numpy()[:, 0, :5]
-    np.testing.assert_allclose(np.exp(2 * sg.rfe_log_omega(bb, 12, 5)), ref, rtol=1e-9)
+    np.testing.assert_allclose(np.exp(2 * rfe_log_omega(bb, 12, 5)), ref, rtol=1e-9)
 
     # the straight M from its semiseparable generators, and V^T M V without forming M
     links = nm.links_from_gamma(bb.x, bb.w, np.ascontiguousarray(g))
@@ -133,39 +152,39 @@ def test_numpy_prbdm_matches_model():
 def test_rfe_rayleigh_ritz_matches_the_fine_chain():
     # Ritz values from a 16-link chain's moments bound the 96-link chain's eigenvalues from above
     # and agree with them closely; measured on 200 random beams
-    bb = sg.BeamBatch.from_beams([random_beam(5, i) for i in range(200)])
-    exact = sg.rfe_log_omega(bb, 96, 5)
-    ritz = sg.rfe_log_omega(bb, 96, 5, coarse=16)
+    bb = BeamBatch.from_beams([random_beam(5, i) for i in range(200)])
+    exact = rfe_log_omega(bb, 96, 5)
+    ritz = rfe_log_omega(bb, 96, 5, coarse=16)
     assert np.all(ritz >= exact - 1e-12)
     assert np.all(np.median(ritz - exact, axis=0) < [1e-6, 2e-5, 2e-4, 5e-4, 1.5e-3])
     assert np.max(ritz - exact) < 1e-2
     # and they are far closer to the fine chain than the coarse chain is
-    coarse = sg.rfe_log_omega(bb, 16, 5)
+    coarse = rfe_log_omega(bb, 16, 5)
     assert np.all(np.median(ritz - exact, axis=0) < 0.2 * np.median(coarse - exact, axis=0))
 
 
 # ------------------------------------------------------------------------ invariances
 def test_feature_invariances_beam_truth():
     beams = [random_beam(2, i) for i in range(6)]
-    base = sg.features(sg.BeamBatch.from_beams(beams))
+    base = features(BeamBatch.from_beams(beams))
     for s in SCALINGS:
-        got = sg.features(sg.BeamBatch.from_beams([_scaled(b, **s) for b in beams]))
+        got = features(BeamBatch.from_beams([_scaled(b, **s) for b in beams]))
         np.testing.assert_allclose(got, base, rtol=1e-10, atol=1e-10, err_msg=str(s))
     # the shape does matter
-    other = sg.features(sg.BeamBatch.from_beams([random_beam(3, 0)]))
+    other = features(BeamBatch.from_beams([random_beam(3, 0)]))
     assert np.abs(other - base[0]).max() > 1e-2
 
 
 def test_plate_features_add_aspect_and_nu():
     b = random_beam(2, 0)
-    spec = sg.FeatureSpec(truth="plate")
-    names = sg.feature_names(spec)
+    spec = FeatureSpec(truth="plate")
+    names = feature_names(spec)
     assert names[-2:] == ["log_aspect", "nu"]
-    f0 = sg.features(sg.BeamBatch.from_beams([b]), spec)[0]
-    f_w = sg.features(sg.BeamBatch.from_beams([_scaled(b, width=0.5)]), spec)[0]
-    f_t = sg.features(sg.BeamBatch.from_beams([_scaled(b, thickness=3.0, E=2.0)]), spec)[0]
+    f0 = features(BeamBatch.from_beams([b]), spec)[0]
+    f_w = features(BeamBatch.from_beams([_scaled(b, width=0.5)]), spec)[0]
+    f_t = features(BeamBatch.from_beams([_scaled(b, thickness=3.0, E=2.0)]), spec)[0]
     nu = Beam(x=b.x, half_width=b.half_width, thickness=b.thickness, material=Material(nu=0.3))
-    f_nu = sg.features(sg.BeamBatch.from_beams([nu]), spec)[0]
+    f_nu = features(BeamBatch.from_beams([nu]), spec)[0]
     np.testing.assert_allclose(f_w[:-2], f0[:-2], atol=1e-10)      # the shape is the same
     assert f_w[-2] == pytest.approx(f0[-2] + np.log(0.5))           # the aspect is not
     np.testing.assert_allclose(f_t, f0, atol=1e-10)                 # Kirchhoff: t drops out
@@ -180,14 +199,14 @@ def test_truth_prbdm_and_fit_invariances():
     from prbdm.truth import bending_frequencies
 
     beam = random_beam(4, 1)
-    bb = sg.BeamBatch.from_beams(beam)
+    bb = BeamBatch.from_beams(beam)
     om0 = bending_frequencies(beam, model="beam", modes=4).omega / np.sqrt(bb.lambda0[0])
     g = torch.tensor([0.3, 0.2, 0.25, 0.25], dtype=torch.float64)
     k = torch.linspace(0.8, 1.2, 9, dtype=torch.float64)
     lam0 = model.eigenvalues(beam, g, k) / model.BeamTensors.from_beams(beam).lambda0
     for s in SCALINGS:
         b = _scaled(beam, **s)
-        l0 = sg.BeamBatch.from_beams(b).lambda0[0]
+        l0 = BeamBatch.from_beams(b).lambda0[0]
         om = bending_frequencies(b, model="beam", modes=4).omega / np.sqrt(l0)
         np.testing.assert_allclose(om, om0, rtol=1e-8, err_msg=str(s))
         lam = model.eigenvalues(b, g, k) / model.BeamTensors.from_beams(b).lambda0
@@ -211,8 +230,8 @@ def test_prediction_invariances(tiny_set):
         np.testing.assert_allclose(p.gamma, p0.gamma, atol=1e-12)
         np.testing.assert_allclose(p.k, p0.k, rtol=1e-9)
         np.testing.assert_allclose(p.log_omega_hat, p0.log_omega_hat, atol=1e-10)
-        ratio = np.sqrt(sg.BeamBatch.from_beams(scaled).lambda0 /
-                        sg.BeamBatch.from_beams(beams).lambda0)
+        ratio = np.sqrt(BeamBatch.from_beams(scaled).lambda0 /
+                        BeamBatch.from_beams(beams).lambda0)
         np.testing.assert_allclose(p.omega, p0.omega * ratio[:, None, None], rtol=1e-9)
 
 
@@ -224,7 +243,7 @@ REQUIRED_META = ["joints", "modes", "truth", "law", "poses", "features", "normal
 def _torch_outputs(net, src, bb, select_poses):
     """A torch network's decoded outputs for a batch, with the checkpoint ``src``'s features and
     normalisation (what training sees), candidates compared on ``select_poses``."""
-    feats = sg.features(bb, src.feature_spec)
+    feats = features(bb, src.feature_spec)
     f_std = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
     norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
     rfe = torch.as_tensor(feats[:, src.feature_spec.base_columns(len(src.norm["freq_mean"]))],
@@ -249,15 +268,15 @@ def test_checkpoint_round_trip(tmp_path, tiny_set):
     assert len(meta["features"]["min"]) == len(meta["features"]["names"])
     # the hash is the data set's
     table = D.read_table(tiny_set / "data", status="ok").to_pandas()
-    assert sg.dataset_hash(table) == ds["sha256"]
+    assert dataset_hash(table) == ds["sha256"]
     # weights -> torch network -> save -> load: same predictions, and the torch forward agrees
     net = SurrogateNet(len(src.names), 2, len(src.poses), len(src.norm["freq_mean"]),
                           width=meta["network"]["width"], depth=meta["network"]["depth"],
                           k_mode=src.k_mode, hypotheses=src.hypotheses)
     assert src.hypotheses > 1
-    tensors, _ = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, _ = read_checkpoint(tiny_checkpoint(tiny_set))
     net.load_weights(tensors)
-    path = sg.save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
+    path = save_checkpoint(tmp_path / "copy.safetensors", net.weights(), {
         k: v for k, v in meta.items() if k not in ("format", "format_version")})
     assert path.with_suffix(".json").is_file()
     copy = sg.load_checkpoint(path)
@@ -265,7 +284,7 @@ def test_checkpoint_round_trip(tmp_path, tiny_set):
     a, b = src.predict(beams, warn=False), copy.predict(beams, warn=False)
     for f in ("gamma", "k", "log_omega_hat", "omega", "omega_truth"):
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
-    d = _torch_outputs(net, src, sg.BeamBatch.from_beams(beams), src.select_poses)
+    d = _torch_outputs(net, src, BeamBatch.from_beams(beams), src.select_poses)
     np.testing.assert_allclose(d["gamma"].numpy(), a.gamma, atol=2e-6)
     np.testing.assert_allclose(d["logk"].numpy(), np.log(a.k), atol=2e-5)
     np.testing.assert_allclose(d["log_omega_hat"].numpy(), a.log_omega_hat, atol=2e-5)
@@ -360,7 +379,7 @@ def test_training_log_and_comparison_recorded(tiny_set):
 def test_threaded_prediction_equals_one_thread(monkeypatch, tiny_set):
     sur = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     monkeypatch.setattr(sp, "PIECE", 7)          # several pieces from a small batch
-    beams = sg.BeamBatch.from_beams([random_beam(5, i) for i in range(30)])
+    beams = BeamBatch.from_beams([random_beam(5, i) for i in range(30)])
     one = sur.predict(beams, warn=False, threads=1)
     for threads in (2, 3):
         many = sur.predict(beams, warn=False, threads=threads)
@@ -374,14 +393,14 @@ def test_threaded_prediction_equals_one_thread(monkeypatch, tiny_set):
     np.testing.assert_allclose(whole.omega_truth, one.omega_truth, rtol=1e-6)
     monkeypatch.setenv("PRBDM_THREADS", "zero")
     with pytest.raises(BadInput, match="PRBDM_THREADS"):
-        sg.default_threads()
+        default_threads()
 
 
 def test_gauss_select_poses():
     """Candidates are compared on the poses nearest the 2-point Gauss-Legendre nodes."""
-    assert sg.gauss_select_poses(1) == [0] and sg.gauss_select_poses(2) == [0, 1]
-    assert sg.gauss_select_poses(5) == [1, 3] and sg.gauss_select_poses(6) == [1, 4]
-    assert sg.gauss_select_poses(9) == [2, 6] and sg.gauss_select_poses(14) == [3, 10]
+    assert gauss_select_poses(1) == [0] and gauss_select_poses(2) == [0, 1]
+    assert gauss_select_poses(5) == [1, 3] and gauss_select_poses(6) == [1, 4]
+    assert gauss_select_poses(9) == [2, 6] and gauss_select_poses(14) == [3, 10]
     # two nodes integrate a smooth loss over the poses far better than the end points
     t = np.linspace(0, 1, 6)
     f = 1 + 3 * t ** 2                          # e.g. a loss growing with the pose angle
@@ -391,14 +410,14 @@ def test_gauss_select_poses():
 def test_format_1_checkpoint_keeps_its_choice_poses(tmp_path, tiny_set):
     """A checkpoint written before ensembles (no members, no select_poses) loads as one network
     that compares candidates on the first and last poses, as it was trained and measured."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     for key in ("members", "select_poses"):
         meta["network"].pop(key)
-    old = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "old.safetensors", tensors, {
+    old = sg.load_checkpoint(save_checkpoint(tmp_path / "old.safetensors", tensors, {
         k: v for k, v in meta.items() if k not in ("format", "format_version")}))
-    assert old.n_members == 1 and old.select_poses == sg.SELECT_POSES
+    assert old.n_members == 1 and old.select_poses == SELECT_POSES
     new = sg.load_checkpoint(tiny_checkpoint(tiny_set))
-    assert new.select_poses == sg.gauss_select_poses(len(new.poses))
+    assert new.select_poses == gauss_select_poses(len(new.poses))
     beams = [random_beam(6, i) for i in range(30)]
     a, b = old.predict(beams, warn=False), new.predict(beams, warn=False)
     np.testing.assert_array_equal(a.log_omega_hat, b.log_omega_hat)
@@ -411,7 +430,7 @@ def test_ensemble_checkpoint(tmp_path, tiny_set):
     src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
     meta = dict(src.metadata)
     net_meta = meta["network"]
-    tensors, _ = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, _ = read_checkpoint(tiny_checkpoint(tiny_set))
     torch.manual_seed(0)
     members = []
     for j in range(2):
@@ -428,7 +447,7 @@ def test_ensemble_checkpoint(tmp_path, tiny_set):
 
     def save(name, weights, n_members):
         meta["network"] = {**net_meta, "members": n_members}
-        return sg.load_checkpoint(sg.save_checkpoint(tmp_path / name, weights, {
+        return sg.load_checkpoint(save_checkpoint(tmp_path / name, weights, {
             k: v for k, v in meta.items() if k not in ("format", "format_version")}))
 
     loaded = save("ens.safetensors", ens.weights(), 2)
@@ -442,13 +461,13 @@ def test_ensemble_checkpoint(tmp_path, tiny_set):
     np.testing.assert_allclose(p.log_omega_hat, (q[0].log_omega_hat + q[1].log_omega_hat) / 2,
                                atol=1e-6)
     # the kept candidate is the one whose PRBDM best matches the predicted frequencies
-    bb = sg.BeamBatch.from_beams(beams)
+    bb = BeamBatch.from_beams(beams)
     lam_p = np.exp(2 * p.log_omega_hat[:, :src.modes])
     cand = p.extra["gamma_candidates"]
     H, P = cand.shape[1], len(loaded.select_poses)
-    mu = sg.prbdm_eigenvalues(np.repeat(bb.x, H, 0), np.repeat(bb.w, H, 0),
-                              cand.reshape(-1, 3), src.poses[loaded.select_poses])
-    _, loss = sg.candidate_losses(mu.reshape(len(beams), H, P, 2)[..., :src.modes], lam_p)
+    mu = prbdm_eigenvalues(np.repeat(bb.x, H, 0), np.repeat(bb.w, H, 0),
+                           cand.reshape(-1, 3), src.poses[loaded.select_poses])
+    _, loss = candidate_losses(mu.reshape(len(beams), H, P, 2)[..., :src.modes], lam_p)
     np.testing.assert_array_equal(p.extra["selected"], loss.argmin(1))
     assert (p.extra["selected"] >= src.member_hypotheses).any()   # both members contribute
     # the torch ensemble (used in training) gives the same
@@ -503,12 +522,12 @@ def test_with_members_uses_the_first_members(tmp_path, tiny_set):
     """``with_members(k)``: the first k members of an ensemble, as their own checkpoint would
     predict; bad counts are refused."""
     src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     meta.pop("format"), meta.pop("format_version")
     ens = {**{f"members.0.{k}": v for k, v in tensors.items()},
            **{f"members.1.{k}": v * 1.01 for k, v in tensors.items()}}
     meta["network"] = {**meta["network"], "members": 2}
-    two = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "two.safetensors", ens, meta))
+    two = sg.load_checkpoint(save_checkpoint(tmp_path / "two.safetensors", ens, meta))
     one = two.with_members(1)
     assert (one.n_members, one.hypotheses, two.n_members) == (1, src.hypotheses, 2)
     beams = [random_beam(6, i) for i in range(9)]
@@ -532,14 +551,14 @@ def _raw_save(path, tensors, meta):
 
 
 def test_weights_sha256_written_and_checked(tmp_path, tiny_set):
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
-    assert meta["weights_sha256"] == sg.weights_sha256(tensors)
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
+    assert meta["weights_sha256"] == weights_sha256(tensors)
     # the hash does not depend on the order or the layout of the file
-    assert sg.weights_sha256(dict(reversed(list(tensors.items())))) == meta["weights_sha256"]
+    assert weights_sha256(dict(reversed(list(tensors.items())))) == meta["weights_sha256"]
     edited = {k: v.copy() for k, v in tensors.items()}
     name = sorted(edited)[0]
     edited[name].flat[0] += np.float32(1e-3)
-    assert sg.weights_sha256(edited) != meta["weights_sha256"]
+    assert weights_sha256(edited) != meta["weights_sha256"]
     path = _raw_save(tmp_path / "edited.safetensors", edited, meta)
     with pytest.raises(BadInput, match=r"edited\.safetensors.*weights_sha256"):
         sg.load_checkpoint(path)
@@ -563,7 +582,7 @@ def _refused(tmp_path, tensors, meta, *words):
 def test_checkpoint_checks_on_load(tmp_path, tiny_set):
     """Non-finite weights, wrong shapes, weights that the metadata does not describe and
     inconsistent metadata are refused, naming the file and the weight or field."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     first = sorted(k for k in tensors if k.endswith(".weight"))[0]
     for bad in (np.nan, np.inf):
         t = {k: v.copy() for k, v in tensors.items()}
@@ -599,7 +618,7 @@ def test_checkpoint_checks_on_load(tmp_path, tiny_set):
     t = {k: v.copy() for k, v in tensors.items()}
     t[first].flat[0] = np.nan
     with pytest.raises(BadInput, match="not finite"):
-        sg.save_checkpoint(tmp_path / "nan.safetensors", t, meta)
+        save_checkpoint(tmp_path / "nan.safetensors", t, meta)
     assert not list(tmp_path.glob("nan*")) and not list(tmp_path.glob(".nan*"))
 
 
@@ -607,9 +626,9 @@ def test_checkpoint_checks_on_load(tmp_path, tiny_set):
 def test_shipped_checkpoints_are_hashed_and_clean(joints):
     """Every shipped checkpoint records the hash of its weights (checked on load), its readable
     copy equals the header, and neither holds a machine path."""
-    path = sg.PACKAGE_CHECKPOINTS / f"beam-n{joints}.safetensors"
-    tensors, meta = sg.read_checkpoint(path)
-    assert meta["weights_sha256"] == sg.weights_sha256(tensors)
+    path = PACKAGE_CHECKPOINTS / f"beam-n{joints}.safetensors"
+    tensors, meta = read_checkpoint(path)
+    assert meta["weights_sha256"] == weights_sha256(tensors)
     assert json.loads(path.with_suffix(".json").read_text()) == meta
     assert "/work/" not in json.dumps(meta) and "/home/" not in json.dumps(meta)
 
@@ -618,11 +637,11 @@ def plate_checkpoint(tmp_path, root, nu=0.28) -> Path:
     """The tiny network made into a plate-truth checkpoint trained on one Poisson's ratio: the
     plate features (log_aspect, nu) added with zero weights, nu's training range the single value
     ``nu`` (as a data set of one material gives)."""
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(root))
+    tensors, meta = read_checkpoint(tiny_checkpoint(root))
     meta = json.loads(json.dumps(meta))
     spec = dict(meta["features"]["spec"], truth="plate")
     meta["truth"], meta["features"]["spec"] = "plate", spec
-    meta["features"]["names"] = sg.feature_names(sg.FeatureSpec(**spec))
+    meta["features"]["names"] = feature_names(FeatureSpec(**spec))
     meta["features"]["min"] += [-6.0, nu]
     meta["features"]["max"] += [2.0, nu]
     meta["normalisation"]["feature_mean"] += [-2.0, nu]
@@ -631,7 +650,7 @@ def plate_checkpoint(tmp_path, root, nu=0.28) -> Path:
     W = tensors[first]
     tensors = dict(tensors, **{first: np.concatenate([W, np.zeros((W.shape[0], 2), W.dtype)], 1)})
     meta = {k: v for k, v in meta.items() if k not in ("format", "format_version")}
-    return sg.save_checkpoint(tmp_path / "plate-n2.safetensors", tensors, meta)
+    return save_checkpoint(tmp_path / "plate-n2.safetensors", tensors, meta)
 
 
 def _with_nu(beam, nu):
@@ -668,7 +687,7 @@ def test_physical_problems_flag_broken_predictions(tmp_path, tiny_set):
     good = sur.predict(beams, warn=False)
     assert not good.implausible.any() and good.problems == []
     rfe = sur.features(beams)[:, sur.feature_spec.base_columns(good.log_omega_hat.shape[1])]
-    bb = sg.BeamBatch.from_beams(beams)
+    bb = BeamBatch.from_beams(beams)
     for field_, change, word in (("k", lambda v: v * 1e142, "k = "),
                                  ("k", lambda v: v * np.nan, "k = "),
                                  ("gamma", lambda v: v * np.nan, "gamma"),
@@ -679,17 +698,17 @@ def test_physical_problems_flag_broken_predictions(tmp_path, tiny_set):
         value = getattr(pred, field_).copy()
         value[2] = change(value[2])
         setattr(pred, field_, value)
-        bad, texts = sg.physical_problems(pred, rfe, bb)
+        bad, texts = physical_problems(pred, rfe, bb)
         assert bad.tolist() == [False, False, True, False, False, False], field_
         assert texts[0].startswith("beam 2: implausible prediction: ") and word in texts[0]
     # a damaged checkpoint (hash recomputed, so it loads): the frequency head's bias far off
-    tensors, meta = sg.read_checkpoint(tiny_checkpoint(tiny_set))
+    tensors, meta = read_checkpoint(tiny_checkpoint(tiny_set))
     last = max((k for k in tensors if k.endswith(".bias")), key=lambda k: int(k.split(".")[-2]))
     b = tensors[last].copy()
     b[-1] += 1e4
     meta = {k: v for k, v in meta.items() if k not in ("format", "format_version")}
-    broken = sg.load_checkpoint(sg.save_checkpoint(tmp_path / "broken.safetensors",
-                                                   dict(tensors, **{last: b}), meta))
+    broken = sg.load_checkpoint(save_checkpoint(tmp_path / "broken.safetensors",
+                                                dict(tensors, **{last: b}), meta))
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)      # no numpy overflow warnings
         warnings.simplefilter("ignore", sg.OutOfDistributionWarning)
@@ -711,7 +730,7 @@ def test_shipped_checkpoint_is_as_accurate_as_documented_on_held_out_beams(joint
     from prbdm.geometry import random_beam
     from prbdm.truth import bending_frequencies
 
-    path = sg.PACKAGE_CHECKPOINTS / f"beam-n{joints}.safetensors"
+    path = PACKAGE_CHECKPOINTS / f"beam-n{joints}.safetensors"
     if not path.is_file():
         pytest.skip(f"{path.name} not shipped in this tree")
     sur = sg.load_checkpoint(path)
@@ -738,7 +757,7 @@ def test_frequency_checkpoint_keeps_every_mode_closer_than_the_eigenvalue_one():
     omega = np.array([bending_frequencies(b, "beam", 5).omega for b in beams])
     worst = {}
     for name in ("beam-n4-frequency", "beam-n4"):
-        path = sg.PACKAGE_CHECKPOINTS / f"{name}.safetensors"
+        path = PACKAGE_CHECKPOINTS / f"{name}.safetensors"
         if not path.is_file():
             pytest.skip(f"{path.name} not shipped in this tree")
         pred = sg.predict(beams, checkpoint=sg.load_checkpoint(path), frequencies=True, warn=False)
@@ -760,7 +779,7 @@ def test_the_physics_chooses_a_plausible_candidate():
 
     from prbdm.geometry import random_beam
 
-    path = sg.PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
+    path = PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
     if not path.is_file():
         pytest.skip("beam-n4 is not shipped")
     sur = sg.load_checkpoint(path)

@@ -15,6 +15,13 @@ import torch
 from prbdm import dataset as D
 from prbdm import objectives
 from prbdm import surrogate as sg
+from prbdm.chain import BeamBatch, loss_percent_np
+from prbdm.surrogate.checkpoint import (
+    dataset_hash,
+    read_checkpoint,
+    save_checkpoint,
+    weights_sha256,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 TRAINING = REPO / "training"
@@ -145,7 +152,7 @@ def test_two_data_sets_must_agree_and_train_together(tmp_path, tiny_data):
     meta = sg.load_checkpoint(out).metadata["dataset"]
     assert meta["size"] == 32 and [s["size"] for s in meta["sets"]] == [20, 12]
     assert meta["sets"][1]["spec"]["beam"]["max_half_width"] == [0.05, 0.2]
-    one = sg.dataset_hash(D.read_table(tiny_data, status="ok").to_pandas())
+    one = dataset_hash(D.read_table(tiny_data, status="ok").to_pandas())
     assert meta["sets"][0]["sha256"] == one != meta["sha256"]
 
 
@@ -171,7 +178,7 @@ def test_joints_override_and_freq_loss(tmp_path, tiny_data):
     sur = sg.load_checkpoint(out)
     assert sur.joints == 3 and sur.modes == 3
     assert sur.metadata["training"]["config"]["freq_loss"] == "l1"
-    pred = sur.predict(sg.BeamBatch.from_beams([D.beam_for(D.make_spec(joints=2), 1)]),
+    pred = sur.predict(BeamBatch.from_beams([D.beam_for(D.make_spec(joints=2), 1)]),
                        warn=False)
     assert pred.gamma.shape[-1] == 4 and np.isfinite(pred.omega).all()
     labelled = tmp_path / "labelled"
@@ -283,7 +290,7 @@ def test_tiny_training_run(tmp_path, tiny_data, objective):
     table = D.read_table(tiny_data, columns=["index", "x", "half_width", "thickness", "length",
                                              "omega_truth"], status="ok").to_pandas()
     val = table[table["index"] % 10 == 8].reset_index(drop=True)
-    batch = sg.BeamBatch.from_table(val, D.read_manifest(tiny_data)["spec"]["beam"]["material"])
+    batch = BeamBatch.from_table(val, D.read_manifest(tiny_data)["spec"]["beam"]["material"])
     pred = sur.predict(batch, warn=False)
     assert np.isfinite(pred.omega).all() and (pred.k > 0).all()
     r = sur.modes
@@ -292,7 +299,7 @@ def test_tiny_training_run(tmp_path, tiny_data, objective):
     if objective == "frequency":
         measure = objectives.frequency_measure(lam, truth, r)
     else:
-        measure = torch.as_tensor(sg.loss_percent_np(lam.numpy(), truth.numpy(), r))
+        measure = torch.as_tensor(loss_percent_np(lam.numpy(), truth.numpy(), r))
     recorded = meta["training"]["comparison"]["physics"]["val"]["loss_mean"]
     # float32 network weights: the NumPy path agrees with training's torch path to ~1e-6
     assert float(measure.mean()) == pytest.approx(recorded, rel=1e-3)
@@ -322,8 +329,8 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     record = b.metadata["training"]["init_from"]
     assert record["name"] == "start" and record["truth"] == "beam" and len(record["sha256"]) == 64
     beams = [D.beam_for(D.read_manifest(plate)["spec"], i) for i in range(3)]
-    pa = a.predict(sg.BeamBatch.from_beams(beams), warn=False)
-    pb = b.predict(sg.BeamBatch.from_beams(beams), warn=False)
+    pa = a.predict(BeamBatch.from_beams(beams), warn=False)
+    pb = b.predict(BeamBatch.from_beams(beams), warn=False)
     np.testing.assert_allclose(pb.gamma, pa.gamma, rtol=1e-4, atol=1e-6)
     np.testing.assert_allclose(pb.omega, pa.omega, rtol=1e-4)
     before = listing(tmp_path)
@@ -364,24 +371,24 @@ def test_retest_reproduces_a_shipped_checkpoints_test(name, coretype, monkeypatc
 def test_retest_writes_the_bands_only_for_the_same_measurement(tmp_path):
     """A checkpoint without bands gains exactly the ones recorded (weights unchanged); one whose
     recorded test the data do not reproduce is refused: one line, exit 2, nothing written."""
-    tensors, meta = sg.read_checkpoint(REPO / "checkpoints" / "plate-n4.safetensors")
+    tensors, meta = read_checkpoint(REPO / "checkpoints" / "plate-n4.safetensors")
     meta = {k: v for k, v in meta.items() if k != "weights_sha256"}
     bands = meta["test"]["by_width"]
-    bare = sg.save_checkpoint(tmp_path / "bare.safetensors", tensors,
-                              dict(meta, test={k: v for k, v in meta["test"].items()
+    bare = save_checkpoint(tmp_path / "bare.safetensors", tensors,
+                           dict(meta, test={k: v for k, v in meta["test"].items()
                                                if k not in ("by_width", "by_width_added_by")}))
     run = script("retest.py", "--checkpoint", bare, "--write", 1)
     assert run.returncode == 0, run.stderr[-2000:]
-    after, meta_after = sg.read_checkpoint(bare)
+    after, meta_after = read_checkpoint(bare)
     # the bands measured here: the recorded ones to retest's float32 tolerance (another CPU's
     # kernels round them ~4e-6 apart; OPENBLAS_CORETYPE=Prescott)
     assert _same_to(meta_after["test"]["by_width"], bands, 1e-4)
-    assert meta_after["weights_sha256"] == sg.weights_sha256(tensors)
+    assert meta_after["weights_sha256"] == weights_sha256(tensors)
     assert json.loads(bare.with_suffix(".json").read_text())["test"]["by_width"] == \
         meta_after["test"]["by_width"]
 
-    wrong = sg.save_checkpoint(tmp_path / "wrong.safetensors", tensors,
-                               dict(meta, test=dict(meta["test"], loss_median=1.0)))
+    wrong = save_checkpoint(tmp_path / "wrong.safetensors", tensors,
+                            dict(meta, test=dict(meta["test"], loss_median=1.0)))
     before = listing(tmp_path)
     run = script("retest.py", "--checkpoint", wrong, "--write", 1)
     _one_line_exit_2(run, "test.loss_median", "nothing written")
@@ -397,7 +404,7 @@ def test_retest_measures_a_fresh_checkpoint_alike(tmp_path, tiny_data):
     run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--device", "cpu",
                  *TINY_NET, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-3000:]
-    tensors, meta = sg.read_checkpoint(out)
+    tensors, meta = read_checkpoint(out)
     assert "refused_by_truth" in meta["dataset"]
     run = script("retest.py", "--checkpoint", out)
     assert run.returncode == 0, run.stderr[-2000:]
@@ -407,7 +414,7 @@ def test_retest_measures_a_fresh_checkpoint_alike(tmp_path, tiny_data):
     for name, changed, words in (
             ("nodata", {k: v for k, v in meta.items() if k != "dataset"}, ["does not record"]),
             ("extra", dict(meta, test=dict(meta["test"], extra_key=1.0)), ["test.extra_key"])):
-        bad = sg.save_checkpoint(tmp_path / f"{name}.safetensors", tensors, changed)
+        bad = save_checkpoint(tmp_path / f"{name}.safetensors", tensors, changed)
         before = listing(tmp_path)
         _one_line_exit_2(script("retest.py", "--checkpoint", bad), *words)
         assert listing(tmp_path) == before

@@ -22,7 +22,7 @@ def test_metrics(sur, batch, omega_truth, r: int, loss_fit) -> dict:
     import torch
 
     from prbdm import objectives
-    from prbdm import surrogate as sg
+    from prbdm.chain import loss_percent_np
     from prbdm.surrogate.checkpoint import accuracy_by_width
 
     omega_truth = np.asarray(omega_truth, dtype=np.float64)
@@ -31,7 +31,7 @@ def test_metrics(sur, batch, omega_truth, r: int, loss_fit) -> dict:
     pred_time = time.perf_counter() - t0
     lam_net = (pred.omega / np.sqrt(batch.lambda0)[:, None, None]) ** 2
     lam_hat = omega_truth[:, :r] ** 2 / batch.lambda0[:, None]
-    loss_net = sg.loss_percent_np(lam_net, lam_hat, r)
+    loss_net = loss_percent_np(lam_net, lam_hat, r)
     freq_net = objectives.frequency_measure(torch.as_tensor(lam_net), torch.as_tensor(lam_hat),
                                             r).numpy()
     ferr = np.abs(pred.omega_truth / omega_truth - 1)

@@ -26,8 +26,8 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
     sha256, the commit that made it). ``refuse`` False keeps the records today's truth refuses
     (a checkpoint trained before that filter, which records no ``refused_by_truth``)."""
     from prbdm import dataset as ds
-    from prbdm import surrogate as sg
     from prbdm.errors import BadInput
+    from prbdm.surrogate.checkpoint import dataset_hash
 
     try:
         manifest = ds.read_manifest(path)
@@ -47,7 +47,7 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
     record = {"path": _cli.portable_path(path), "spec": spec, "size": len(table),
               "records_ok_read": read, "max_index": top,
               **({"refused_by_truth": int(refused.sum())} if refuse else {}),
-              "manifest_count": manifest.get("count"), "sha256": sg.dataset_hash(table),
+              "manifest_count": manifest.get("count"), "sha256": dataset_hash(table),
               "dataset_git_commit": manifest.get("git_commit")}
     return table, record
 

@@ -19,11 +19,11 @@ def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[d
     values its metadata must equal (joints, width, depth, k_mode, hypotheses, poses as a list,
     truth_modes, cells, rfe_segments, rfe_coarse, spread), ``truth`` this run's truth (for the
     message). StartError otherwise."""
-    from prbdm import surrogate as sg
     from prbdm.errors import BadInput
+    from prbdm.surrogate.checkpoint import read_checkpoint
 
     try:
-        weights, meta = sg.read_checkpoint(path)
+        weights, meta = read_checkpoint(path)
         sha256 = hashlib.sha256(Path(path).read_bytes()).hexdigest()
         net, fs = meta["network"], meta["features"]["spec"]
         have = {"joints": meta["joints"], "width": net["width"], "depth": net["depth"],

@@ -45,10 +45,15 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.chain import BeamBatch  # noqa: E402
 from prbdm.dataset import refused_by_truth  # noqa: E402
 from prbdm.dataset.schema import beam_for  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
-from prbdm.surrogate.checkpoint import read_checkpoint  # noqa: E402
+from prbdm.surrogate.checkpoint import (  # noqa: E402
+    read_checkpoint,
+    save_checkpoint,
+    training_sets,
+)
 from prbdm.surrogate.neighbours import NEIGHBOURS_TENSOR, build_reference  # noqa: E402
 
 GEOMETRY = ["index", "x", "half_width", "thickness", "length"]
@@ -78,7 +83,7 @@ def made_again(s: dict) -> pd.DataFrame:
 
 
 tables, regenerated, lacking = [], [], 0
-for s in sg.training_sets(meta):
+for s in training_sets(meta):
     if not {"path", "max_index", "spec"} <= s.keys():
         _fail(f"--checkpoint: {path.name} does not record its data set (path, max_index, spec), "
               "so its training panels cannot be found")
@@ -108,9 +113,9 @@ recorded_split = (meta.get("dataset") or {}).get("split") or {}
 if not regenerated and recorded_split.get("test") not in (None, len(te)):
     _fail(f"--checkpoint: {len(te)} test panels, {path.name} records {recorded_split['test']}")
 
-material = sg.training_sets(meta)[0]["spec"]["beam"]["material"]
+material = training_sets(meta)[0]["spec"]["beam"]["material"]
 t0 = time.perf_counter()
-feats = sur.features(sg.BeamBatch.from_table(table, material))
+feats = sur.features(BeamBatch.from_table(table, material))
 print(f"features of {len(table)} panels: {time.perf_counter() - t0:.0f} s")
 
 # the panels are the training ones: the recorded ranges are those of the training split
@@ -141,7 +146,7 @@ print(f"reference: {record['count']} of {record['drawn_from']} training panels (
 if cfg["write"]:
     out = {k: v for k, v in weights.items() if k != NEIGHBOURS_TENSOR}
     out[NEIGHBOURS_TENSOR] = reference
-    sg.save_checkpoint(path, out, {**{k: v for k, v in meta.items() if k != "weights_sha256"},
-                                   "neighbours": record})
+    save_checkpoint(path, out, {**{k: v for k, v in meta.items() if k != "weights_sha256"},
+                                "neighbours": record})
     print(f"wrote {path} and {path.with_suffix('.json').name}: neighbours ({record['count']} "
           "panels)")

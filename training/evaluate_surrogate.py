@@ -71,8 +71,10 @@ if json_out and Path(json_out).is_dir():
 
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.chain import BeamBatch, loss_percent_np  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
 from prbdm.geometry import Material, random_beam  # noqa: E402
+from prbdm.surrogate.checkpoint import matching_training_set, training_sets
 
 try:
     sur = sg.load_checkpoint(checkpoint)
@@ -80,7 +82,7 @@ except BadInput as exc:
     _fail(str(exc))
 meta = sur.metadata
 # a recorded path is relative to the repository (no machine paths in committed metadata)
-data = data or str(_cli.find_path(sg.training_sets(meta)[0]["path"]))
+data = data or str(_cli.find_path(training_sets(meta)[0]["path"]))
 try:
     manifest = ds.read_manifest(data)
 except BadInput as exc:
@@ -88,9 +90,9 @@ except BadInput as exc:
 # a set may differ from a training set in what does not change the beams' distribution or their
 # truth: the random stream (another seed: every beam is new), the fit's start count (a truth-only
 # training set has 0) and the labelling batch
-trained_on = sg.matching_training_set(meta, manifest["spec"])
+trained_on = matching_training_set(meta, manifest["spec"])
 if trained_on is None:
-    _a, _b = dict(manifest["spec"]), dict(sg.training_sets(meta)[0]["spec"])
+    _a, _b = dict(manifest["spec"]), dict(training_sets(meta)[0]["spec"])
     for _key in ("seed", "starts", "fit_batch"):
         _a.pop(_key, None), _b.pop(_key, None)
     _fail(f"evaluate_surrogate: data set {data} has a different spec than the checkpoint's "
@@ -117,7 +119,7 @@ if B == 0:
     _fail(f"evaluate_surrogate: no {split} beams in {data}")
 n, r = sur.joints, sur.modes
 material = Material(**manifest["spec"]["beam"]["material"])
-batch = sg.BeamBatch.from_table(table, material)
+batch = BeamBatch.from_table(table, material)
 R = len(sur.norm["freq_mean"])
 omega_t = np.stack(table["omega_truth"].to_numpy())
 lam_hat = omega_t[:, :r] ** 2 / batch.lambda0[:, None]
@@ -137,7 +139,7 @@ t0 = time.perf_counter()
 pred = sur.predict(batch, frequencies=True, warn=False)
 t_batch = (time.perf_counter() - t0) / B
 lam_net = (pred.omega / np.sqrt(batch.lambda0)[:, None, None]) ** 2
-loss_net = sg.loss_percent_np(lam_net, lam_hat, r)
+loss_net = loss_percent_np(lam_net, lam_hat, r)
 ferr = np.abs(pred.omega_truth[:, :R] / omega_t[:, :R] - 1)
 loss_fit = table["loss_percent"].to_numpy()
 t_single = []
@@ -221,7 +223,7 @@ if throughput_count:
         sur.predict(tb, frequencies=True, warn=False)
         wall.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
-    F = sur.features(sg.BeamBatch.from_beams(tb))
+    F = sur.features(BeamBatch.from_beams(tb))
     t3 = time.perf_counter()
     sur.predict(F, warn=False)
     t4 = time.perf_counter()

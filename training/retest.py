@@ -48,8 +48,13 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.chain import BeamBatch  # noqa: E402
 from prbdm.errors import BadInput  # noqa: E402
-from prbdm.surrogate.checkpoint import read_checkpoint  # noqa: E402
+from prbdm.surrogate.checkpoint import (  # noqa: E402
+    read_checkpoint,
+    save_checkpoint,
+    training_sets,
+)
 
 path = Path(cfg["checkpoint"])
 try:
@@ -65,7 +70,7 @@ if not recorded:
     _fail(f"--checkpoint: {path} records no held-out test to measure again")
 
 tables = []
-for s in sg.training_sets(meta):
+for s in training_sets(meta):
     if not {"path", "max_index", "sha256", "spec"} <= s.keys():
         _fail(f"--checkpoint: {path.name} does not record its data set (path, max_index, sha256, "
               "spec), so its test cannot be measured again")
@@ -84,8 +89,8 @@ te = _sets.split(table["index"].to_numpy())["test"]
 if len(te) != recorded["beams"]:
     _fail(f"--checkpoint: {len(te)} test beams, {path.name} records {recorded['beams']}")
 
-spec = sg.training_sets(meta)[0]["spec"]
-batch = sg.BeamBatch.from_table(table, spec["beam"]["material"]).take(te)
+spec = training_sets(meta)[0]["spec"]
+batch = BeamBatch.from_table(table, spec["beam"]["material"]).take(te)
 R = len(sur.norm["freq_mean"])
 omega_truth = np.stack(table["omega_truth"].to_numpy())[te, :R]
 loss_fit = table["loss_percent"].to_numpy(dtype=np.float64, na_value=np.nan)[te]
@@ -136,6 +141,6 @@ if cfg["write"]:
     meta["test"] = {**test, "predict_time_s_per_beam": recorded["predict_time_s_per_beam"]}
     if "by_width" not in recorded or "by_width_added_by" in recorded:
         meta["test"]["by_width_added_by"] = "training/retest.py"
-    sg.save_checkpoint(path, weights, {k: v for k, v in meta.items() if k != "weights_sha256"})
+    save_checkpoint(path, weights, {k: v for k, v in meta.items() if k != "weights_sha256"})
     print(f"wrote {path} and {path.with_suffix('.json').name}: test.by_width "
           f"({len(test['by_width'])} bands)")

@@ -59,7 +59,7 @@ def _portable(described: dict) -> dict:
 def held_out_beams(cfg: ReportConfig, sur) -> tuple[list, dict]:
     """The beams to evaluate and a description of where they come from."""
     from ..geometry import random_beam
-    from ..surrogate import training_sets
+    from ..surrogate.checkpoint import training_sets
 
     seeds = [s.get("spec", {}).get("seed") for s in training_sets(sur.metadata)]
     train_seed = seeds[0]

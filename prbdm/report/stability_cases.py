@@ -438,13 +438,14 @@ def case_network(row: Row, beam: Beam, expect_ood: bool):
     (``"unlike"``: every feature in range, the combination not); otherwise none. Where every
     feature is in range its truth-frequency prediction must be close."""
     from prbdm import surrogate
+    from prbdm.surrogate.features import FeatureSpec, feature_names
     from prbdm.truth import bending_frequencies
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         pred = surrogate.predict([beam], joints=4)
     ood = [str(w.message) for w in caught
            if issubclass(w.category, surrogate.OutOfDistributionWarning)]
-    names = surrogate.feature_names(surrogate.FeatureSpec())
+    names = feature_names(FeatureSpec())
     named = bool(ood) and any(nm in ood[0] for nm in names)
     g = pred.gamma[0]
     row.check("gamma on the bounded simplex, k > 0, omega finite", None,
