@@ -1,8 +1,14 @@
 """prbdm: Pseudo-Rigid Body Dynamic Models of flexible cantilever panels.
 
+The entry points a user calls: a panel (:class:`Beam`, :func:`load_beam`, :func:`random_beam`
+here), its truth (:func:`prbdm.truth.bending_frequencies`), a PRBDM fitted to it
+(:func:`prbdm.fit.fit_prbdm`) or predicted by a network (:func:`prbdm.surrogate.predict`), and
+the PRBDM in a simulator (:func:`prbdm.export.export`, :func:`prbdm.simulate.simulate`).
+
 Modules, read in this order:
-geometry (the beam), sections (exact span integrals, torch), model (the differentiable PRBDM),
-truth (scikit-fem bending frequencies), fit (multistart optimisation), cli (the command line).
+geometry (the beam), chain (the PRBDM in NumPy), sections and model (the differentiable PRBDM,
+torch), truth (scikit-fem bending frequencies), fit (multistart optimisation), surrogate (the
+network), export and simulate (the PRBDM in a simulator), cli (the command line).
 
 Importing ``prbdm`` imports neither torch nor scikit-fem: each command pulls in only what it needs.
 """
