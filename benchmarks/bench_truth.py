@@ -19,7 +19,8 @@ Prints
 ``--compare OLD_TREE`` (a checkout of another commit, e.g. ``git worktree add ../old COMMIT``)
 instead runs the plate truth (``--model mindlin``: the Mindlin plate's) of OLD_TREE and of this
 tree side by side in one run: two worker processes, one importing each tree, solve the same
-random panels (the paper's generator, ``--seed``, minimum half-width ``--min-half-width``),
+random panels (the paper's generator, ``--seed``, minimum half-width ``--min-half-width``; or
+``--family smooth``: :func:`prbdm.planforms.smooth_beam`),
 taking turns panel by panel (which tree goes first alternates), so that a changing load on a
 shared machine hits both alike. Each worker
 measures the CPU time of its process per panel (``time.process_time``: counts every thread of
@@ -192,11 +193,14 @@ import hashlib, json, sys, time
 sys.path.insert(0, sys.argv[1])
 import numpy as np
 from prbdm.geometry import random_beam
+from prbdm.planforms import smooth_beam
 from prbdm.errors import BadInput
 from prbdm.truth import bending_frequencies
 seed, hw_min, modes, model = int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 kw = json.loads(sys.argv[6]) if len(sys.argv) > 6 else {}
-beam = lambda i: random_beam(seed, i, min_half_width=hw_min)
+family = sys.argv[7] if len(sys.argv) > 7 else "random"
+beam = ((lambda i: smooth_beam(seed, i)) if family == "smooth" else
+        (lambda i: random_beam(seed, i, min_half_width=hw_min)))
 bending_frequencies(beam(10 ** 6), model, modes=modes, **kw)          # warm-up, not counted
 print(json.dumps({"ready": True}), flush=True)
 for line in sys.stdin:
@@ -217,14 +221,15 @@ for line in sys.stdin:
 """
 
 
-def _start_worker(tree, seed, hw_min, modes, threads, model, kw=None):
+def _start_worker(tree, seed, hw_min, modes, threads, model, kw=None, family="random"):
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
     if threads > 0:
         for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
             env[k] = str(threads)
     proc = subprocess.Popen([sys.executable, "-c", _WORKER, os.path.abspath(tree), str(seed),
-                             str(hw_min), str(modes), model, json.dumps(kw or {})], cwd=os.path.abspath(tree), env=env,
+                             str(hw_min), str(modes), model, json.dumps(kw or {}), family],
+                            cwd=os.path.abspath(tree), env=env,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if not json.loads(proc.stdout.readline()).get("ready"):
         raise RuntimeError(f"worker for {tree} did not start")
@@ -238,17 +243,19 @@ def _ask(proc, i):
 
 
 def compare(old_tree, panels, seed=0, hw_min=0.01, modes=5, threads=1, model="plate",
-            new_kw=None, old_kw=None):
+            new_kw=None, old_kw=None, family="random"):
     new_tree = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     trees = {"old": old_tree, "new": new_tree}
-    print(f"== {model} truth, old vs new, side by side: {panels} random panels (seed {seed}, "
-          f"min half-width {hw_min} m), {modes} modes, default mesh ==")
+    what = (f"smooth panels (prbdm.planforms.smooth_beam, seed {seed})" if family == "smooth"
+            else f"random panels (seed {seed}, min half-width {hw_min} m)")
+    print(f"== {model} truth, old vs new, side by side: {panels} {what}, {modes} modes, "
+          "default mesh ==")
     print(f"old: {os.path.abspath(old_tree)}\nnew: {os.path.abspath(new_tree)}")
     print("BLAS/OpenMP threads per worker: "
           + (str(threads) if threads > 0 else "environment default"))
     kws = {"old": old_kw or {}, "new": new_kw or {}}
     print(f"options: old {kws['old']}, new {kws['new']}")
-    workers = {k: _start_worker(t, seed, hw_min, modes, threads, model, kws[k])
+    workers = {k: _start_worker(t, seed, hw_min, modes, threads, model, kws[k], family)
                for k, t in trees.items()}
     res = {"old": [], "new": []}
     try:
@@ -306,6 +313,9 @@ def main(argv=None):
     ap.add_argument("--model", choices=("plate", "mindlin"), default="plate",
                     help="the truth model --compare times (default plate)")
     ap.add_argument("--modes", type=int, default=5, help="bending modes asked for (--compare)")
+    ap.add_argument("--family", choices=("random", "smooth"), default="random",
+                    help="--compare panels: the paper's generator (random, default) or "
+                         "prbdm.planforms.smooth_beam (smooth; --min-half-width unused)")
     ap.add_argument("--new-options", default="{}", metavar="JSON",
                     help='options of this tree\'s solve, e.g. \'{"selection": "section"}\' '
                          "(--compare; the old tree's: --old-options)")
@@ -315,7 +325,7 @@ def main(argv=None):
     if args.compare:
         compare(args.compare, args.panels, args.seed, args.min_half_width, modes=args.modes,
                 threads=args.threads, model=args.model, new_kw=json.loads(args.new_options),
-                old_kw=json.loads(args.old_options))
+                old_kw=json.loads(args.old_options), family=args.family)
         return
     if args.validation:
         validation()

@@ -50,7 +50,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP2, ElementTriP3, ElementTriP4
 
-from ._linalg import ShiftInvertLanczos, grown, refined_inverse
+from ._linalg import CondensedInverse, ShiftInvertLanczos, grown
 from .modes import SECTION_HATS, SECTION_THRESHOLD, section_fraction, select_bending
 from .plate import _scaled, _section_operators, plate_mesh
 
@@ -91,17 +91,16 @@ def _sparse(triplets, size: int, keep=None, fmt: str = "csr"):
     return sp.coo_matrix((data, (rows, cols)), shape=(size, size)).asformat(fmt)
 
 
-def _matrices(basis, nu: float, tau: float, kappa: float, keep=None):
-    """Stiffness ``K`` (CSC) and mass ``M`` (CSR) on the unknowns ``[W, beta_x, beta_y]`` (each
-    ``basis.N``; with ``keep`` only those DOFs, as :func:`_sparse`), the load vector ``f``
-    (``int W``, every DOF) of a uniform transverse acceleration and the mass matrix ``M0`` of one
-    field (``N`` x ``N``, CSR).
+def _element_matrices(basis, nu: float, tau: float, kappa: float):
+    """Every element's stiffness ``Ke`` (E, 3 B, 3 B), on ``[W, beta_x, beta_y]`` field-major
+    (field ``a``, local function ``i`` at ``a B + i``), its one-field mass matrix ``MM``
+    (E, B, B) and the load vector ``int W`` (N,) of a uniform transverse acceleration.
 
     All element matrices at once: each scalar integral below is one ``einsum`` over (element,
-    test function, trial function) on the basis's own quadrature, and the three fields' blocks go
-    into one COO assembly. scikit-fem's ``BilinearForm`` would loop over the 15 x 15 pairs of P4
-    functions once per form, seven forms: several times slower for the same matrix
-    (tests/test_mindlin.py checks the two against each other)."""
+    test function, trial function) on the basis's own quadrature. scikit-fem's
+    ``BilinearForm`` would loop over the 15 x 15 pairs of P4 functions once per form, seven
+    forms: several times slower for the same matrix (tests/test_mindlin.py checks the two
+    against each other)."""
     N = basis.N
     phi = np.stack([np.asarray(f[0]) for f in basis.basis])            # (B, E, Q)
     grad = np.stack([f[0].grad for f in basis.basis], axis=1)          # (2, B, E, Q)
@@ -125,15 +124,40 @@ def _matrices(basis, nu: float, tau: float, kappa: float, keep=None):
               [-a * GY, yx, YY + c * XX + a * MM]]
     Ke = np.concatenate([np.concatenate(row, axis=2) for row in blocks], axis=1)  # (E, 3B, 3B)
     el = basis.element_dofs.T                                                        # (E, B)
+    load = np.bincount(el.ravel(), weights=np.einsum("ieq,eq->ei", phi, dx).ravel(),
+                       minlength=N)
+    return Ke, MM, load
+
+
+def _matrices(basis, nu: float, tau: float, kappa: float, keep=None):
+    """Stiffness ``K`` (CSC) and mass ``M`` (CSR) on the unknowns ``[W, beta_x, beta_y]`` (each
+    ``basis.N``; with ``keep`` only those DOFs, as :func:`_sparse`), the load vector ``f``
+    (``int W``, every DOF) of a uniform transverse acceleration and the mass matrix ``M0`` of one
+    field (``N`` x ``N``, CSR): the assembled form of :func:`_element_matrices` (the solver
+    itself condenses the element matrices instead, :class:`prbdm.truth._linalg.CondensedInverse`).
+    """
+    N = basis.N
+    Ke, MM, load = _element_matrices(basis, nu, tau, kappa)
+    el = basis.element_dofs.T
     dofs = np.concatenate([el + s * N for s in range(3)], axis=1)                    # (E, 3B)
     K = _sparse([(Ke, dofs, dofs)], 3 * N, keep, "csc")
     r = tau ** 2 / 12.0
     M = _sparse([(MM, el, el), (r * MM, el + N, el + N), (r * MM, el + 2 * N, el + 2 * N)],
                 3 * N, keep)
     M0 = _sparse([(MM, el, el)], N)
-    load = np.bincount(el.ravel(), weights=np.einsum("ieq,eq->ei", phi, dx).ravel(),
-                       minlength=N)
     return K, M, np.concatenate([load, np.zeros(2 * N)]), M0
+
+
+def _field_mass(M0, r: float, keep):
+    """``diag(M0, r M0, r M0)`` (CSR), the rows and columns ``keep`` only: the three fields'
+    mass matrix from the one-field ``M0`` without a second assembly."""
+    M0 = M0.tocsr()
+    nnz, N = M0.nnz, M0.shape[0]
+    M = sp.csr_matrix((np.concatenate([M0.data, r * M0.data, r * M0.data]),
+                       np.concatenate([M0.indices, M0.indices + N, M0.indices + 2 * N]),
+                       np.concatenate([M0.indptr, M0.indptr[1:] + nnz,
+                                       M0.indptr[1:] + 2 * nnz])), shape=(3 * N, 3 * N))
+    return M[keep][:, keep]
 
 
 def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str = "section",
@@ -165,7 +189,11 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     fixed = np.unique(np.concatenate([root_dofs, root_dofs + N, root_dofs + 2 * N,
                                       axis_dofs + 2 * N]))
     free = np.setdiff1d(np.arange(3 * N), fixed)
-    Kf, Mf, f, M0 = _matrices(basis, nu, tau, shear_factor, keep=free)
+    n = len(free)
+    Ke, MM, load = _element_matrices(basis, nu, tau, shear_factor)
+    el = basis.element_dofs.T
+    M0 = _sparse([(MM, el, el)], N)
+    f = np.concatenate([load, np.zeros(2 * N)])
     area = float(f.sum())
 
     # section fractions of the deflection field, on the plate's span-wise hats
@@ -176,19 +204,31 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
     Hw, G = _section_operators(quad, hats)
     G_lu = splu(G)
 
-    # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU
-    d = 1.0 / np.sqrt(Kf.diagonal())
-    Kf, Mf = _scaled(Kf, d), _scaled(Mf, d)
+    # diagonal scaling as in the plate: unit diagonal for K, a far better conditioned LU; the
+    # fixed DOFs scaled by 0, which takes their rows and columns out of the element matrices
+    E, B = el.shape
+    dofs = (np.arange(3)[None, :, None] * N + el[:, None, :]).reshape(E, 3 * B)
+    diag = np.bincount(dofs.ravel(), weights=np.einsum("eii->ei", Ke).ravel(), minlength=3 * N)
+    dfull = np.zeros(3 * N)
+    dfull[free] = 1.0 / np.sqrt(diag[free])
+    d = dfull[free]
+    ds = dfull[dofs]
+    Ke *= ds[:, :, None] * ds[:, None, :]
+    Mf = _scaled(_field_mass(M0, tau ** 2 / 12.0, free), d)
+    number = np.full(3 * N, n)
+    number[free] = np.arange(n)
     # no refinement of the solves by default (see refinement_steps): Rayleigh quotients of the
-    # unfactored K and M below make the eigenvalues insensitive to the LU's rounding
+    # unfactored K and M below make the eigenvalues insensitive to the factorisation's rounding
     if refinement_steps is None:
         refinement_steps = 0 if tau >= NO_REFINEMENT_FROM else 1
-    op = refined_inverse(Kf, steps=int(refinement_steps), spd=True)
-    n = Kf.shape[0]
+    # K^-1 with the element-interior (bubble) DOFs condensed: exact, and the factorised matrix
+    # has 2/3 of the DOFs (prbdm.truth._linalg.CondensedInverse)
+    interior = np.arange(B - basis.elem.interior_dofs, B)
+    op = CondensedInverse(Ke, el, N, interior, number, n, steps=int(refinement_steps))
     want = int(modes)
     cap = min(n - 2, MAX_MODES_COMPUTED)
     k = min(cap, max(2 * want + 4, 12))
-    lanczos = ShiftInvertLanczos(op.matvec, Mf, np.ones(n), tol=LANCZOS_TOL)
+    lanczos = ShiftInvertLanczos(op.solve, Mf, np.ones(n), tol=LANCZOS_TOL)
     while True:
         _, vec = lanczos.eigs(k)
         phi = np.zeros((3 * N, k))
@@ -196,7 +236,7 @@ def solve_mindlin(beam, modes: int, elements: int | None = None, selection: str 
         # Rayleigh quotients of the unscaled fields (phi = 0 on the fixed DOFs: the free DOFs'
         # matrices, scaled by d, act on the scaled vectors)
         modal_mass = np.einsum("ik,ik->k", vec, Mf @ vec)
-        lam = np.einsum("ik,ik->k", vec, Kf @ vec) / modal_mass
+        lam = op.quadratic(vec) / modal_mass
         order = np.argsort(lam, kind="stable")
         lam, phi, modal_mass = lam[order], phi[:, order], modal_mass[order]
         # the deflections at the quadrature points, (element, point, mode)
