@@ -79,6 +79,14 @@ def _width(band) -> str:
     return f"over {lo:g} L" if hi is None else f"{lo:g}–{hi:g} L"
 
 
+def _pose_target(meta: dict) -> str:
+    """The checkpoint's pose target (prbdm.pose_target), as prbdm.surrogate reads it: recorded,
+    or 'shape' for a network trained at the one straight pose, else 'straight'."""
+    from prbdm.poses import is_rest
+
+    return meta.get("pose_target") or ("shape" if is_rest(meta["poses"]) else "straight")
+
+
 def checkpoints_page(folder: Path | None = None) -> str:
     folder = folder or REPO / "checkpoints"
     out = [HEADER.format(src="checkpoints/*.json"),
@@ -94,9 +102,10 @@ def checkpoints_page(folder: Path | None = None) -> str:
            "worse than a loss median of 2 % or a direct-frequency median of 1 % says so with "
            "every answer. How they were trained: "
            "[howto/train-a-network.md](../howto/train-a-network.md).\n",
-           "| checkpoint | truth | joints / modes mapped | objective | members | training panels "
-           "(train / val / test) | held-out loss median / p95 | direct, median per mode |",
-           "|---|---|---|---|---|---|---|---|"]
+           "| checkpoint | truth | joints / modes mapped | objective | pose target | members | "
+           "training panels (train / val / test) | held-out loss median / p95 | direct, median "
+           "per mode |",
+           "|---|---|---|---|---|---|---|---|---|"]
     metas = []
     for path in sorted(folder.glob("*.json")):
         meta = json.loads(path.read_text())
@@ -111,7 +120,8 @@ def checkpoints_page(folder: Path | None = None) -> str:
                   f"{split.get('test', 0):,})" if size else "–")
         members = m.get("network", {}).get("members") or 1
         out.append(f"| [`{name}`](#{name}) | {m['truth']} | {m['joints']} / {m['modes']} | "
-                   f"{m.get('objective', 'eigenvalue')} | {members} | {panels} | "
+                   f"{m.get('objective', 'eigenvalue')} | {_pose_target(m)} | {members} | "
+                   f"{panels} | "
                    f"{_pct(t.get('loss_median'))} / {_pct(t.get('loss_p95'))} | "
                    f"{_modes(t.get('freq_err_median'))} |")
     out.append("")

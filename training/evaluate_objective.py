@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
 from prbdm.geometry import Material  # noqa: E402
+from prbdm.poses import pose_set  # noqa: E402
 
 try:
     manifest = ds.read_manifest(cfg["data"])
@@ -69,6 +70,10 @@ for path in [p for p in cfg["checkpoints"].split(",") if p]:
     if sur.joints != spec["joints"] or sur.modes != r:
         _cli.fail(PROG, f"--checkpoints: {path} is for {sur.joints} joints / {sur.modes} modes, the "
                   f"data set for {spec['joints']} / {r}")
+    held = pose_set(spec["poses"], sur.joints)
+    if sur.poses.shape != held.shape or not np.allclose(sur.poses, held):
+        _cli.fail(PROG, f"--checkpoints: {path} was trained at its poses ({sur.pose_target} "
+                  f"target), the data set's fits at {spec['poses']!r}: compare like with like")
     pred = sg.predict(batch, checkpoint=sur, frequencies=True, warn=False)
     worst = 100 * np.abs(pred.omega[..., :r] / omega_t[:, None, :r] - 1).max(axis=(1, 2))
     loss = sg.loss_percent_np(pred.omega, omega_t ** 2, r, is_lambda=False)

@@ -65,6 +65,9 @@ SETTINGS = {
                                  "eigenvalue loss or the frequency objective (prbdm.objectives)",
                    ("eigenvalue", "frequency")),
     "device": S("auto", "torch device for training (auto: cuda when available, else cpu)"),
+    "poses": S("", "pose set the PRBDM is trained at ('': the data set's; a truth-only set may "
+                   "be trained at another: 'linear', at rest, is the shape pose target, "
+                   "prbdm.pose_target)"),
     "joints": S(0, "PRBDM joints n (0: the data set's; another n only from a truth-only set "
                    "that holds n + 1 truth modes)"),
     "modes": S("label,physics,combined", "training modes to compare, comma-separated"),
@@ -218,6 +221,11 @@ if joints and joints != spec["joints"]:
     if spec["truth_modes"] < joints + 1:
         _fail(f"--joints: {data} holds {spec['truth_modes']} truth modes; n = {joints} needs "
               f"n + 1 = {joints + 1}")
+# the poses: the set's, or for a truth-only set any other (its records hold no fit at any pose)
+pose_spec = poses or spec["poses"]
+if pose_spec != spec["poses"] and spec["starts"] > 0:
+    _fail(f"--poses: {data} holds fits at its poses {spec['poses']!r}; another pose set needs a "
+          f"truth-only set (--starts 0), got {poses!r}")
 # r modes are fitted: the set's, or with another n (truth-only) as many as n, as for its own n
 r = min(n, spec["modes"]) if n == spec["joints"] else n
 if N < 10:
@@ -252,7 +260,7 @@ if init_from:
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
-            "hypotheses": hypotheses, "poses": model.make_poses(spec["poses"], n).tolist(),
+            "hypotheses": hypotheses, "poses": model.make_poses(pose_spec, n).tolist(),
             "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
             "rfe_coarse": rfe_coarse, "spread": spread}, spec["truth"])
     except (_start.StartError, ValueError) as exc:       # BadInput is a ValueError
@@ -299,7 +307,7 @@ log("config " + json.dumps({**config, "data": _cli.portable_path(data),
                             "out": _cli.portable_path(out), "device": device,
                             "init_from": _cli.portable_path(init_from) if init_from else ""}))
 
-poses = model.make_poses(spec["poses"], n)
+poses = model.make_poses(pose_spec, n)
 m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
@@ -625,9 +633,9 @@ meta = {
     "objective": objective,
     "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
     "joints": n, "modes": r, "truth": spec["truth"], "law": spec["law"],
-    "poses": poses.tolist(), "pose_spec": spec["poses"], "truth_modes": R,
+    "poses": poses.tolist(), "pose_spec": pose_spec, "truth_modes": R,
     # trained at rest: the chain's stiffness is held at every pose (prbdm.pose_target)
-    "pose_target": "shape" if spec["poses"] == "linear" else "straight",
+    "pose_target": "shape" if pose_spec == "linear" else "straight",
     "features": {"spec": fspec.to_dict(), "names": names,
                  "min": feats[tr].min(0).tolist(), "max": feats[tr].max(0).tolist(),
                  "ood_margin": sg.OOD_MARGIN,
