@@ -185,14 +185,17 @@ def _newton(sc, F, M0, m0):
     return None
 
 
-def _path(sc, direction, kind, target_load=None, target_angle=None):
+def _path(sc, direction, kind, target_load=None, target_angle=None, target_z=None):
     """Continuation in the load along ``direction`` (force unit vector, or the moment) up to the
-    nondimensional ``target_load``, or until the tip angle is ``target_angle``.
+    nondimensional ``target_load``, or until the tip angle is ``target_angle`` (or the tip's z,
+    nondimensional, is ``target_z``).
 
     Returns (load, m0, tip state)."""
     def loads(lam):
         return (lam * direction, 0.0) if kind == "force" else (np.zeros(2), lam)
 
+    # the tip state's entry that is aimed at: its angle (0) or its z (3)
+    index, target = (0, target_angle) if target_z is None else (3, target_z)
     lam, m0, lam_prev, m_prev = 0.0, 0.0, None, None
     y = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 1.0])
     top = target_load if target_load is not None else MAX_LOAD
@@ -215,13 +218,14 @@ def _path(sc, direction, kind, target_load=None, target_angle=None):
                                f"accepted (no stable equilibrium is continued past it)")
             continue
         m1, y1 = got
-        if target_angle is not None and abs(y1[0]) >= abs(target_angle):
+        if target is not None and abs(y1[index]) >= abs(target):
             def miss(l, lo=lam, hi=trial, mlo=m0, mhi=m1):
                 F_, M_ = loads(l)
                 g = _newton(sc, F_, M_, mlo + (mhi - mlo) * (l - lo) / (hi - lo))
                 if g is None:
-                    raise BadInput("tip_angle: the load path to this angle has a limit point")
-                return g[1][0] - target_angle
+                    raise BadInput(f"{'tip_angle' if index == 0 else 'tip_deflection'}: the "
+                                   "load path to it has a limit point")
+                return g[1][index] - target
             lstar = brentq(miss, lam, trial, xtol=1e-14, rtol=1e-14)
             F_, M_ = loads(lstar)
             m_, y_ = _newton(sc, F_, M_, m0 + (m1 - m0) * (lstar - lam) / (trial - lam))
@@ -229,6 +233,11 @@ def _path(sc, direction, kind, target_load=None, target_angle=None):
         lam_prev, m_prev = lam, m0
         lam, m0, y = trial, m1, y1
         step = min(step * 1.5, 0.5 + 0.25 * lam)
+    if target_z is not None:
+        raise BadInput(f"tip_deflection: at most {abs(y[3]) * sc.L:.4g} m ({abs(y[3]):.4g} L) "
+                       f"is reached with a tip force at this angle up to the largest load "
+                       f"accepted, P L^2/(E I_max) = {MAX_LOAD:g}; got "
+                       f"{abs(target_z) * sc.L:.4g} m")
     if target_angle is not None:
         raise BadInput(f"tip_angle: at most {abs(y[0]):.4g} rad is reached with a force at "
                        f"this angle up to the largest load accepted, P L^2/(E I_max) = "
@@ -238,24 +247,30 @@ def _path(sc, direction, kind, target_load=None, target_angle=None):
 
 def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = math.pi / 2,
                moment: float | None = None, tip_angle: float | None = None,
-               load: str = "force", samples: int = 401) -> RodEquilibrium:
+               tip_deflection: float | None = None, load: str = "force",
+               samples: int = 401) -> RodEquilibrium:
     """Large-deflection static equilibrium of ``beam`` under a dead tip load.
 
     Give exactly one of ``force`` [N] (magnitude >= 0, direction ``force_angle`` [rad] from +x
     towards +z: pi/2, the default, is perpendicular to the unloaded strip), ``moment`` [N m]
-    (positive bends towards +z) or ``tip_angle`` [rad]: the load of kind ``load`` (``"force"``
+    (positive bends towards +z), ``tip_angle`` [rad]: the load of kind ``load`` (``"force"``
     at ``force_angle``, or ``"moment"``) that gives this tip angle, found by continuation in the
-    load. ``samples``: points of the returned shape (the stations are added).
+    load, or ``tip_deflection`` [m]: the force at ``force_angle`` that puts the tip's z there
+    (|D| < L, of the sign of sin(force_angle)), found the same way. ``samples``: points of the
+    returned shape (the stations are added).
 
     Raises BadInput beyond ``MAX_LOAD`` (P L^2 / (E I_max)) or ``MAX_MOMENT_ANGLE``, past a limit
-    or bifurcation point of the load path, or for a tip angle no accepted load reaches.
+    or bifurcation point of the load path, or for a tip angle or deflection no accepted load
+    reaches.
     """
     t0 = time.perf_counter()
     sc = _scaled(beam)
     fa = _number(force_angle, "force_angle", -math.pi, math.pi, " rad")
     direction = np.array([math.cos(fa), math.sin(fa)])
-    if sum(v is not None for v in (force, moment, tip_angle)) != 1:
-        raise BadInput("load: give exactly one of force, moment or tip_angle")
+    if sum(v is not None for v in (force, moment, tip_angle, tip_deflection)) != 1:
+        raise BadInput("load: give exactly one of force, moment, tip_angle or tip_deflection")
+    if tip_deflection is not None and load != "force":
+        raise BadInput("tip_deflection: is reached by a tip force (load='force') only")
     if load not in ("force", "moment"):
         raise BadInput(f"load: must be 'force' or 'moment', got {load!r}")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) \
@@ -278,6 +293,16 @@ def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = m
                     f" N (P L^2/(E I_max) <= {MAX_LOAD:g})")
         lam, m0, _ = _path(sc, direction, "force", target_load=P / sc.force) if P > 0 \
             else (0.0, 0.0, rest)
+    elif tip_deflection is not None:
+        dz = _number(tip_deflection, "tip_deflection", -sc.L, sc.L, " m (|D| <= L)") / sc.L
+        if dz == 0:
+            lam, m0 = 0.0, 0.0
+        else:
+            if math.sin(fa) * dz <= 0 or abs(math.sin(fa)) < 1e-3:
+                raise BadInput(f"tip_deflection: a force at force_angle {fa:.4g} rad cannot "
+                               f"move the tip to z = {dz * sc.L:.4g} m; give a deflection of "
+                               f"the sign of sin(force_angle), with |sin(force_angle)| >= 1e-3")
+            lam, m0, _ = _path(sc, direction, "force", target_z=dz)
     else:
         ta = _number(tip_angle, "tip_angle", -math.pi / 2, math.pi, " rad")
         if ta == 0:
