@@ -60,11 +60,10 @@ import numpy as np
 import torch
 from scipy.integrate import solve_ivp
 
-from prbdm.chain import TipLoadStatics, joint_accelerations
+from prbdm.chain import ChainDynamics, TipLoadStatics, joint_accelerations
 from prbdm.classical import HOWELL_1R, SU_3R, joint_stiffness
 from prbdm.geometry import Beam, Material, random_beam
 from prbdm.model import BeamTensors, base_stiffness, links_from_gamma, paper_poses, uniform_gamma
-from prbdm.simulate import ChainDynamics
 from prbdm.springs import InterpolatedSprings, LinearSprings
 from prbdm.truth.rod import rod_response, rod_static
 

@@ -16,14 +16,15 @@ busy machine).
 - one chain in SI, for time integration and statics (:mod:`prbdm.simulate`,
   benchmarks/large_deflection.py): :func:`absolute_inertia` (the constant matrix of the kinetic
   energy in absolute link angles), :func:`joint_mass_matrix`, :func:`joint_coriolis`,
-  :func:`joint_accelerations` (Lagrange's equations in closed form), :func:`tip_position`, and
+  :func:`joint_accelerations` (Lagrange's equations in closed form), :func:`tip_position`,
   :class:`TipLoadStatics` (equilibria under a dead tip force, with any spring law of
-  :mod:`prbdm.springs`).
+  :mod:`prbdm.springs`) and :class:`ChainDynamics` (the chain of a fit result's description, in
+  SI, with its springs and damping).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -502,3 +503,115 @@ class TipLoadStatics:
             return value(t) - target
         Ps = brentq(miss, lo, hi, xtol=1e-15 * hi, rtol=1e-14)
         return self.step_to(d * lo, th_lo, d * Ps), Ps
+
+
+@dataclass
+class ChainDynamics:
+    """Planar chain of links 1..n (link 0 clamped), SI units, relative joint angles theta.
+
+    length (n,) link lengths [m] (link j from joint j to joint j+1, the tip for j = n);
+    com (n,) centre of mass from joint j [m]; mass (n,) [kg]; inertia (n,) about the centre
+    [kg m^2]; stiffness, damping (n,) per joint [N m/rad, N m s/rad]; springref (n,) rest angles;
+    springs: the joint spring law (:mod:`prbdm.springs`; default the constant ``stiffness`` about
+    ``springref``). ``A``: :func:`absolute_inertia`; its equations are :func:`joint_accelerations`;
+    :mod:`prbdm.simulate` integrates them.
+    """
+
+    length: np.ndarray
+    com: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    springref: np.ndarray
+    springs: object = None
+    A: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        from .springs import LinearSprings
+
+        for name in ("length", "com", "mass", "inertia", "stiffness", "damping", "springref"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=float))
+        if self.springs is None:
+            self.springs = LinearSprings(self.stiffness, self.springref)
+        self.A = absolute_inertia(self.length, self.com, self.mass, self.inertia)
+
+    @property
+    def n(self) -> int:
+        return self.length.size
+
+    @classmethod
+    def from_description(cls, desc: dict, springs=None) -> "ChainDynamics":
+        """From :func:`prbdm.export.prbdm_from_fit`'s description; ``springs`` replaces its
+        constant hinge stiffness by another law (:func:`prbdm.springs.fitted_springs`)."""
+        bodies, hinges = desc["bodies"][1:], desc["hinges"]
+        return cls(length=[b["length"] for b in bodies], com=[b["com"][0] for b in bodies],
+                   mass=[b["mass"] for b in bodies], inertia=[b["inertia"][1] for b in bodies],
+                   stiffness=[h["stiffness"] for h in hinges],
+                   damping=[h["damping"] for h in hinges],
+                   springref=[h["springref"] for h in hinges], springs=springs)
+
+    def mass_matrix(self, theta) -> np.ndarray:
+        """M(theta) [kg m^2], relative angles."""
+        return joint_mass_matrix(self.A, theta)
+
+    def coriolis(self, theta, theta_dot) -> np.ndarray:
+        """C(theta, theta') theta' [N m] in joint coordinates."""
+        return joint_coriolis(self.A, theta, theta_dot)
+
+    def rhs(self, t, y, tau=None):
+        """d/dt [theta, theta'] for solve_ivp; tau(t) -> (n,) joint torques, optional."""
+        n = self.n
+        theta, thd = y[:n], y[n:]
+        Q = -self.springs.torque(theta) - self.damping * thd
+        if tau is not None:
+            Q = Q + tau(t)
+        return np.concatenate([thd, joint_accelerations(self.A, theta, thd, Q)])
+
+    def tip(self, theta):
+        """Tip position (x relative to joint 1, z) [m] for theta (..., n)."""
+        return tip_position(self.length, theta)
+
+    def energy(self, theta, theta_dot) -> float:
+        """Kinetic + spring energy [J]."""
+        M = self.mass_matrix(theta)
+        return float(0.5 * theta_dot @ M @ theta_dot) + self.springs.energy(np.asarray(theta))
+
+    def linear_frequencies(self, theta=None) -> np.ndarray:
+        """omega [rad/s] of K v = lambda M(theta) v (default about the spring reference)."""
+        from scipy.linalg import eigh
+
+        theta = self.springref if theta is None else theta
+        return np.sqrt(eigh(np.diag(self.stiffness), self.mass_matrix(theta), eigvals_only=True))
+
+    def lever(self) -> np.ndarray:
+        """d z_tip / d theta_k at theta = 0: distance from joint k to the tip [m]."""
+        return np.cumsum(self.length[::-1])[::-1]
+
+    def static_tip_shape(self, deflection: float) -> np.ndarray:
+        """theta of the linear static shape under a tip force, scaled so that the tip's z
+        (exact kinematics) is ``deflection``."""
+        from scipy.optimize import brentq
+
+        shape = self.lever() / self.stiffness
+        shape = shape / (self.lever() @ shape)     # unit tip deflection to first order
+        if deflection == 0:
+            return np.zeros(self.n)
+        # up to a total rotation of pi/2 the tip's z grows monotonically along the shape
+        s_hi = math.copysign(0.5 * math.pi / np.abs(shape).sum(), deflection)
+        z_hi = self.tip(s_hi * shape)[1]
+        if abs(deflection) >= abs(z_hi):
+            raise BadInput(f"--tip-deflection: {deflection:g} m is more than this chain reaches "
+                           f"in its static shape ({abs(z_hi):.4g} m)")
+        s = brentq(lambda s: self.tip(s * shape)[1] - deflection, 0.0, s_hi,
+                   xtol=1e-16 * abs(s_hi), rtol=1e-15)
+        return s * shape
+
+    def statics(self, x1: float = 0.0) -> TipLoadStatics:
+        """Its equilibria under a dead tip force (:class:`prbdm.chain.TipLoadStatics`; joint 1
+        at ``(x1, 0)``), with its spring law."""
+        return TipLoadStatics(self.length, self.springs, x1, "the PRBDM")
+
+    def impulse_velocity(self, impulse: float) -> np.ndarray:
+        """theta'(0) after a tip impulse P [N s] (along z) on the straight chain at rest."""
+        return np.linalg.solve(self.mass_matrix(np.zeros(self.n)), self.lever() * impulse)

@@ -18,7 +18,7 @@ with ``s_j`` the base stiffness [N m/rad] and ``k(u)`` the pose SCFs interpolate
 joint angle ``u`` between the pose angles (0.10 ... 0.35 rad for the paper's n = 4 poses) and
 held constant outside them (below the first pose ``k`` of the first, above the last ``k`` of the
 last). Each joint's SCF follows its own angle; the torque is the gradient of a potential, so a
-free vibration conserves energy (tests/test_springs.py). Used by :mod:`prbdm.simulate` and
+free vibration conserves energy (tests/test_large_deflection_bench.py). Used by :mod:`prbdm.simulate` and
 benchmarks/large_deflection.py.
 
 A spring law here is any object with ``torque(theta)`` [N m], ``dtorque(theta)`` (the diagonal
@@ -30,7 +30,12 @@ import numpy as np
 
 from .errors import BadInput
 
-__all__ = ["LinearSprings", "InterpolatedSprings", "fitted_springs", "pose_target_of"]
+__all__ = ["LinearSprings", "InterpolatedSprings", "fitted_springs", "pose_target_of",
+           "LAW_OF_POSE_TARGET"]
+
+#: the spring law of each pose target (:data:`prbdm.pose_target.POSE_TARGETS`; a test keeps the
+#: two in step: this module imports nothing of the fit, so that the chain can use its laws)
+LAW_OF_POSE_TARGET = {"straight": "interpolated", "shape": "constant"}
 
 
 class LinearSprings:
@@ -106,15 +111,14 @@ class InterpolatedSprings:
 
 
 def pose_target_of(fit: dict) -> str:
-    """The result's ``pose_target``: ``"straight"`` or ``"shape"``; ``"straight"`` where it has
-    none (made before pose targets existed, or by ``prbdm predict``, whose networks learnt the
-    paper's fit). A ``shape`` result must hold one SCF at every pose; BadInput otherwise."""
-    from .pose_target import POSE_TARGETS
-
+    """The result's ``pose_target``: ``"straight"`` or ``"shape"`` (``prbdm fit`` and
+    ``prbdm predict`` write it); ``"straight"`` where it has none (made before pose targets
+    existed, or by :func:`prbdm.export.run_fit`). A ``shape`` result must hold one SCF at every
+    pose; BadInput otherwise."""
     target = fit.get("pose_target", "straight")
-    if target not in POSE_TARGETS:
-        raise BadInput(f"--from: pose_target must be one of {', '.join(POSE_TARGETS)}, got "
-                       f"{target!r}")
+    if target not in LAW_OF_POSE_TARGET:
+        raise BadInput(f"--from: pose_target must be one of {', '.join(LAW_OF_POSE_TARGET)}, "
+                       f"got {target!r}")
     if target == "shape":
         k = np.atleast_1d(np.asarray(fit.get("k", []), float))
         if k.size and np.ptp(k) > 1e-12 * np.abs(k).max():
@@ -137,7 +141,7 @@ def fitted_springs(fit: dict, base_stiffness) -> tuple[object, dict]:
     target = pose_target_of(fit)
     k = np.atleast_1d(np.asarray(fit["k"], float))
     poses = np.atleast_2d(np.asarray(fit["poses"], float))
-    if target == "shape" or k.size == 1:
+    if LAW_OF_POSE_TARGET[target] == "constant" or k.size == 1:
         info = {"law": "constant", "pose_target": target, "k": float(k[0]),
                 "why": ("a shape result holds its rest stiffness at every pose"
                         if target == "shape" else "a single pose: one SCF")}

@@ -16,6 +16,10 @@ from prbdm.geometry import Beam
 from prbdm.model import BeamTensors, links_from_gamma, mass_matrix
 from prbdm.simulate import (
     ChainDynamics,
+    CheckSettings,
+    InitialCondition,
+    ReferenceSettings,
+    RunSettings,
     beam_modes,
     dominant_frequency,
     modal_tip_response,
@@ -114,7 +118,8 @@ def test_measurements_on_a_known_signal():
 
 def test_small_deflection_period_agrees_within_the_fit_error(linear_fit):
     D = 1e-3 * TAPERED.length
-    res = simulate(TAPERED, linear_fit, tip_deflection=D, periods=5)
+    res = simulate(TAPERED, linear_fit, initial=InitialCondition(tip_deflection=D),
+                   run=RunSettings(periods=5))
     info = res.info
     assert res.tip_prbdm[0] == pytest.approx(D, rel=1e-12)
     assert res.tip_truth[0] == pytest.approx(D, rel=1e-4)       # 20 modes of the static shape
@@ -131,7 +136,8 @@ def test_small_deflection_period_agrees_within_the_fit_error(linear_fit):
 
 def test_impulse_and_damping(linear_fit):
     P = 0.5
-    res = simulate(TAPERED, linear_fit, tip_impulse=P, periods=4)
+    res = simulate(TAPERED, linear_fit, initial=InitialCondition(tip_impulse=P),
+                   run=RunSettings(periods=4))
     # an impulse excites the higher modes strongly; over 4 periods they bias the estimate ~1e-6
     assert res.info["period_error"] < 1e-5
     chain = ChainDynamics.from_description(prbdm_from_fit(TAPERED, linear_fit, springref="zero"))
@@ -141,7 +147,7 @@ def test_impulse_and_damping(linear_fit):
         chain.mass_matrix(np.zeros(3)), chain.lever()), rel=1e-14)
     # damping: ratio zeta on the first mode of both, and the two tip motions agree
     zeta = 0.02
-    res = simulate(TAPERED, linear_fit, damping=zeta, periods=6)
+    res = simulate(TAPERED, linear_fit, run=RunSettings(damping=zeta, periods=6))
     assert res.info["period_error"] < 1e-6
     assert res.info["max_tip_difference"] < 0.05
     m = beam_modes(TAPERED, 20)
@@ -166,7 +172,7 @@ def test_a_damped_run_measures_the_exact_damped_period(linear_fit, zeta):
     as closely. Zero-crossing periods stop where the first mode's envelope nears the noise (after
     it, noise crossings made the PRBDM's 87 % short at zeta 0.3) and are null where too few
     periods are left."""
-    info = simulate(TAPERED, linear_fit, damping=zeta, periods=20).info
+    info = simulate(TAPERED, linear_fit, run=RunSettings(damping=zeta, periods=20)).info
     exact = info["period_truth_exact_s"]
     assert info["period_truth_s"] == pytest.approx(exact, rel=7e-4)     # 4.9e-4 at 0.72
     assert info["period_resolution"] == pytest.approx(abs(info["period_truth_s"] / exact - 1),
@@ -205,7 +211,7 @@ def test_zero_crossings_of_strong_higher_modes_are_no_period():
     beside a measured period that is right."""
     strip = Beam(x=[0.0, 1.0], half_width=[0.2, 0.005], thickness=0.01, name="taper")
     fit = run_fit(strip, 3, poses="linear", starts=8, truth="beam")
-    info = simulate(strip, fit, tip_impulse=1e-4).info
+    info = simulate(strip, fit, initial=InitialCondition(tip_impulse=1e-4)).info
     assert info["period_truth_s"] == pytest.approx(info["period_truth_exact_s"], rel=1e-6)
     assert info["period_zero_crossings_s"] == {"prbdm": None, "truth": None}
 
@@ -216,7 +222,7 @@ def test_a_period_that_cannot_be_measured_is_null_with_a_warning(linear_fit):
     zero-crossing periods are null, never a number (they were 55 % off, with an error of 0),
     and a warning says so; JSON without NaN. A run shorter than 3 damped periods is refused."""
     zeta = 0.9
-    res = simulate(TAPERED, linear_fit, damping=zeta, periods=6)
+    res = simulate(TAPERED, linear_fit, run=RunSettings(damping=zeta, periods=6))
     info = res.info
     assert info["period_truth_s"] is None and info["period_prbdm_s"] is None
     assert info["period_error"] is None
@@ -226,7 +232,8 @@ def test_a_period_that_cannot_be_measured_is_null_with_a_warning(linear_fit):
     json.dumps(res.to_dict(), allow_nan=False)
     with pytest.raises(BadInput, match="at least 3 damped"):
         T1 = 2 * math.pi / beam_modes(TAPERED, 20).omega[0]
-        simulate(TAPERED, linear_fit, damping=0.8, duration=3 * T1)   # 3 undamped = 1.8 damped
+        # 3 undamped periods = 1.8 damped ones
+        simulate(TAPERED, linear_fit, run=RunSettings(damping=0.8, duration=3 * T1))
 
 
 def test_a_heavily_damped_run_without_a_duration_is_long_enough(run, tmp_path, linear_fit):
@@ -255,7 +262,7 @@ def test_overdamped_simulation_is_refused(linear_fit):
 
     for zeta in (1.0, 2.0, -0.5, float("nan")):
         with pytest.raises(BadInput, match=r"--damping: .*\[0, 1\)"):
-            simulate(TAPERED, linear_fit, damping=zeta, periods=2)
+            simulate(TAPERED, linear_fit, run=RunSettings(damping=zeta, periods=2))
 
 
 def test_cli_simulate_refuses_overdamping_before_fitting(run, tmp_path):
@@ -289,7 +296,8 @@ def test_cli_simulate_json_and_plot(run, tmp_path, linear_fit):
 
 @pytest.mark.parametrize("args, message", [
     (["--tip-deflection", "0.01", "--tip-impulse", "1"], "not allowed with"),
-    (["--tip-deflection", "1.0"], "--tip-deflection: must be non-zero with"),
+    (["--tip-deflection", "1.5"], r"--tip-deflection: must be non-zero with \|D\| < L = 1.2 m"),
+    (["--tip-deflection", "0.5", "--damping", "0.1"], r"--tip-deflection: with damping .* 0.3 L"),
     (["--tip-deflection", "0"], "--tip-deflection: must be non-zero with"),
     (["--duration", "-1"], "--duration"),
     (["--duration", "1000"], "--duration: at least 3 damped and at most 500"),
@@ -344,7 +352,7 @@ def paper_fit():
 
 
 def test_simulate_refits_a_paper_pose_fit_at_rest(paper_fit):
-    res = simulate(TAPERED, paper_fit, periods=5)
+    res = simulate(TAPERED, paper_fit, run=RunSettings(periods=5))
     info = res.info
     assert info["refit"] is not None and info["refit"]["truth"] == "omega_truth"
     assert info["pose_theta"] == [0, 0, 0]
@@ -354,8 +362,50 @@ def test_simulate_refits_a_paper_pose_fit_at_rest(paper_fit):
     assert info["warnings"] == [] and info["beam_fingerprint"]["match"] is True
 
 
+#: a coarse rod for the tests (4 elements of degree 3, 256 steps a period): its period at 0.2 L is
+#: within 2e-4 of the rod_response defaults' on TAPERED (the docs' measurement)
+CHEAP_ROD = ReferenceSettings(rod_elements=4, rod_degree=3, rod_steps=256)
+
+
+def test_a_paper_pose_fit_at_large_amplitude_is_simulated_as_fitted(paper_fit):
+    """Beyond 0.01 L the reference is the rod, and a paper-pose result (pose_target 'straight',
+    here by default: run_fit writes none) is not refitted at rest: its SCFs are interpolated
+    between its poses. Released at 0.2 L its joints stay near its first pose's angle, so its
+    period is off by what its first mode at rest (the first pose's SCF) predicts: 10.6 %
+    measured against 11.1 % predicted (the rest fit's: 0.055 %, tests/test_large_amplitude.py);
+    the check's warning says it is simulated as fitted."""
+    info = simulate(TAPERED, paper_fit, initial=InitialCondition(tip_deflection=0.24),
+                    run=RunSettings(periods=3), reference=CHEAP_ROD).info
+    assert info["reference"] == "rod" and info["refit"] is None
+    springs = info["springs"]
+    assert springs["law"] == "interpolated" and springs["pose_target"] == "straight"
+    assert springs["k"] == paper_fit["k"] and springs["pose_angles"] == [
+        p[0] for p in paper_fit["poses"]]
+    err1 = info["check"]["error"][0]
+    assert err1 < -0.05
+    assert info["period_error"] == pytest.approx(1 / (1 + err1) - 1, rel=0.1)
+    assert "simulated as fitted" in info["warnings"][0]
+    assert info["energy_drift"] < 1e-7           # the interpolated law is conservative
+
+
+def test_a_shape_result_keeps_its_rest_stiffness_without_a_refit(linear_fit):
+    """A 'shape' result holds its rest SCF at every pose: simulate takes it as it is (no refit),
+    and its chain is the rest fit's, so its run equals the rest fit's bit for bit; a 'shape'
+    result whose k differs between poses is refused."""
+    poses = [[a] * 3 for a in (0.1, 0.2, 0.3)]
+    shape = dict(linear_fit, poses=poses, k=linear_fit["k"] * 3, pose_target="shape")
+    run_ = RunSettings(periods=4)
+    got = simulate(TAPERED, shape, run=run_).info
+    ref = simulate(TAPERED, linear_fit, run=run_).info
+    assert got["refit"] is None and got["pose"] == 0 and got["springs"]["law"] == "constant"
+    assert got["period_prbdm_s"] == ref["period_prbdm_s"]
+    assert got["fit_freq_error_mode1"] == pytest.approx(abs(ref["check"]["error"][0]), abs=1e-15)
+    with pytest.raises(BadInput, match="pose_target 'shape' holds one stiffness"):
+        simulate(TAPERED, dict(shape, k=[1.0, 1.1, 1.2]), run=run_)
+
+
 def test_simulate_warns_about_a_deflected_pose_model_and_its_period_shows_it(paper_fit):
-    res = simulate(TAPERED, paper_fit, pose=0, periods=5)
+    res = simulate(TAPERED, paper_fit, pose=0, run=RunSettings(periods=5))
     info = res.info
     check = info["check"]
     assert info["refit"] is None and not check["ok"] and check["worst_mode"] == 1
@@ -371,8 +421,9 @@ def test_simulate_refuses_a_result_for_another_beam(paper_fit):
 
     other = Beam(x=TAPERED.x, half_width=[0.18, 0.12, 0.06], thickness=0.02)
     with pytest.raises(BadInput, match="made for a different beam"):
-        simulate(other, paper_fit, periods=3)
-    info = simulate(other, paper_fit, periods=3, ignore_fingerprint=True).info
+        simulate(other, paper_fit, run=RunSettings(periods=3))
+    info = simulate(other, paper_fit, run=RunSettings(periods=3),
+                    checks=CheckSettings(ignore_fingerprint=True)).info
     assert info["beam_fingerprint"]["match"] is False and info["check"]["ok"]
 
 
