@@ -1,18 +1,19 @@
 """The PRBDM chain in NumPy: one home for its physics (links from gamma, exact span integrals,
-mass matrix, the ``beam`` stiffness law, eigenvalues, the SI link table), used by
-``prbdm predict`` (through :mod:`prbdm.surrogate`), the features, and the training checks.
-:mod:`prbdm.model` is its torch twin, kept only where gradients are needed (the fit and the
-training); ``tests/test_surrogate.py`` checks that the two agree. No torch here, so that
-``prbdm predict`` starts in a fraction of a second (importing torch alone takes about 2 s on a
-busy machine).
+the lamina's roll inertia, mass matrix, the base stiffness laws ``beam`` and ``paper``,
+eigenvalues, the SI link table), used by ``prbdm predict`` (through :mod:`prbdm.surrogate`),
+``prbdm export`` (:mod:`prbdm.export`), ``prbdm simulate``, the features, and the training
+checks. :mod:`prbdm.model` is its torch twin, kept only where gradients are needed (the fit and
+the training); ``tests/test_chain.py`` and ``tests/test_surrogate.py`` check that the two agree.
+No torch here, so that ``prbdm predict`` and ``prbdm export --from`` start in a fraction of a
+second (importing torch alone takes about 2 s on a busy machine).
 
 - :class:`BeamBatch`: padded NumPy arrays of stations and half-widths divided by L, plus
   thickness, length and material;
 - :func:`uniform_gamma`: the equal-link (rigid-finite-element) chain's link fractions;
 - :func:`prbdm_eigenvalues`, :func:`link_table`: the PRBDM of a batch of beams;
-- :func:`span_integrals`, :func:`links_from_gamma`, :func:`mass_matrix` and the straight-pose
-  fast path (:func:`straight_mass_matrix`, :func:`straight_projected_mass`) that the features
-  use;
+- :func:`span_integrals` (with the lamina's roll inertia), :func:`links_from_gamma`,
+  :func:`base_stiffness`, :func:`mass_matrix` and the straight-pose fast path
+  (:func:`straight_mass_matrix`, :func:`straight_projected_mass`) that the features use;
 - one chain in SI, for time integration and statics (:mod:`prbdm.simulate`,
   benchmarks/large_deflection.py): :func:`absolute_inertia` (the constant matrix of the kinetic
   energy in absolute link angles), :func:`joint_mass_matrix`, :func:`joint_coriolis`,
@@ -30,6 +31,9 @@ import numpy as np
 
 from .errors import BadInput
 from .geometry import Beam, Material, check_prbdm_width_ratio
+
+#: the base joint stiffness laws (:func:`base_stiffness`)
+LAWS = ("beam", "paper")
 
 
 @dataclass(frozen=True)
@@ -131,10 +135,11 @@ def _inv_logmean(lo, hi):
 
 
 def _simpson(h, xa, xb, wa, wb, parts=(0, 1, 2, 3)):
-    """Integrals over [xa, xb] (length h) of 2 w, 2 x w, 2 x^2 w (Simpson: exact for the cubic)
-    and of 1 / w, for w linear from wa to wb: the ones named by ``parts`` (0..3), in order."""
+    """Integrals over [xa, xb] (length h) of 2 w, 2 x w, 2 x^2 w, of 1 / w and of (2/3) w^3 (the
+    polynomials by Simpson's rule, exact for these cubics), for w linear from wa to wb: the ones
+    named by ``parts`` (0..4), in order."""
     out = []
-    if 1 in parts or 2 in parts:
+    if 1 in parts or 2 in parts or 4 in parts:
         xm, wm = (xa + xb) / 2, (wa + wb) / 2
     for p in parts:
         if p == 0:
@@ -143,8 +148,10 @@ def _simpson(h, xa, xb, wa, wb, parts=(0, 1, 2, 3)):
             out.append(h / 3 * (xa * wa + 4 * xm * wm + xb * wb))
         elif p == 2:
             out.append(h / 3 * (xa * xa * wa + 4 * xm * xm * wm + xb * xb * wb))
-        else:
+        elif p == 3:
             out.append(h * _inv_logmean(wa, wb))
+        else:
+            out.append(h / 9 * (wa ** 3 + 4 * wm ** 3 + wb ** 3))
     return out
 
 
@@ -160,8 +167,8 @@ def _segments(x, q):
 
 
 def _cumulative(x, w, q, parts=(0, 1, 2, 3)):
-    """Integrals from 0 to q of 2 w, 2 x w, 2 x^2 w and 1 / w (``parts`` 0..3, the ones asked
-    for, in order): x, w (B, S), q (B, Q) in [0, 1].
+    """Integrals from 0 to q of 2 w, 2 x w, 2 x^2 w, 1 / w and (2/3) w^3 (``parts`` 0..4, the
+    ones asked for, in order): x, w (B, S), q (B, Q) in [0, 1].
 
     Cost O(B (S + Q) log(B S)): whole segments by prefix sums, the part of q's own segment by
     Simpson's rule; this is what makes the batched prediction fast."""
@@ -179,44 +186,74 @@ def _cumulative(x, w, q, parts=(0, 1, 2, 3)):
     return [np.take_along_axis(c, k, -1) + p for c, p in zip(cums, part)]
 
 
-def span_integrals(x, w, a, b):
+def _direct(x, w, a, b, parts=(0, 1, 2, 3)):
+    """The integrals of ``parts`` (:func:`_simpson`) over each span [a, b] (B, C) on its own:
+    every segment clipped to the span, moments about the span's midpoint. O(B C S), and no
+    cancellation: the moments to round-off, as :func:`prbdm.sections.span_integrals` computes
+    them for few stations."""
+    xk, xk1, wk, wk1 = x[:, None, :-1], x[:, None, 1:], w[:, None, :-1], w[:, None, 1:]
+    a_, b_ = a[..., None], b[..., None]
+    lo = np.minimum(np.maximum(a_, xk), xk1)
+    hi = np.maximum(np.minimum(b_, xk1), lo)
+    dx = xk1 - xk
+    slope = np.where(dx > 0, (wk1 - wk) / np.where(dx > 0, dx, 1.0), 0.0)
+    mid = (a_ + b_) / 2
+    return [v.sum(-1) for v in _simpson(hi - lo, lo - mid, hi - mid, wk + slope * (lo - xk),
+                                         wk + slope * (hi - xk), parts)]
+
+
+def span_integrals(x, w, a, b, *, direct: bool = False, roll: bool = False):
     """NumPy twin of :func:`prbdm.sections.span_integrals` for x, w (B, S) and spans a, b
-    (B, C): (area, first, second, compliance) (B, C), moments about each span's midpoint. Built
-    from cumulative integrals (see :func:`_cumulative`); agrees with the torch version to about
-    1e-12 relative for spans of at least 0.025 L."""
+    (B, C): (area, first, second, compliance) (B, C), moments about each span's midpoint, and
+    with ``roll`` the lamina's inertia about the x axis, ``∫ y^2 dA = ∫ (2/3) w^3 dx`` (times
+    rho t L^4 in kg m^2). By default built from cumulative integrals (:func:`_cumulative`, for the
+    batched prediction), which cancel in the moments: they agree with the torch version to about
+    1e-12 relative in the area, 1e-10 in the centred second moment of a short span far from
+    the root; ``direct`` integrates each span on its own (:func:`_direct`) to round-off."""
+    parts = (0, 1, 2, 3, 4) if roll else (0, 1, 2, 3)
+    if direct:
+        return tuple(_direct(x, w, a, b, parts))
     C = a.shape[-1]
-    F = _cumulative(x, w, np.concatenate([np.broadcast_to(a, b.shape), b], -1))
-    m0, m1, m2, mc = (f[:, C:] - f[:, :C] for f in F)
+    F = _cumulative(x, w, np.concatenate([np.broadcast_to(a, b.shape), b], -1), parts)
+    m0, m1, m2, *rest = (f[:, C:] - f[:, :C] for f in F)
     mid = (a + b) / 2
     first = m1 - mid * m0
     second = m2 - 2 * mid * m1 + mid * mid * m0
-    return m0, first, second, mc
+    return (m0, first, second, *rest)
 
 
-def links_from_gamma(x, w, gamma):
+def links_from_gamma(x, w, gamma, direct: bool = False):
     """NumPy twin of :func:`prbdm.model.links_from_gamma` (nondimensional): dict of cuts (...,
     n+2), length (..., n+1), mass, com, inertia, mean_half_width, tributary_compliance (..., n).
 
     The cumulative integrals are evaluated once at the 2n + 1 distinct points (the cuts and the
-    centres of links 1..n-1); links and tributary spans are differences of them."""
+    centres of links 1..n-1); links and tributary spans are differences of them. ``direct``:
+    each link and span integrated on its own instead (:func:`span_integrals`), to round-off."""
     inner = np.cumsum(gamma[..., :-1], axis=-1)
     zero = np.zeros_like(inner[..., :1])
     cuts = np.concatenate([zero, inner, zero + 1.0], axis=-1)          # (B, n+2)
     mids = (cuts[..., 2:-1] + cuts[..., 1:-2]) / 2                      # centres of links 1..n-1
-    # the mass moments at the cuts, the compliance at the link centres and the free end
-    m0, m1, m2 = (f[:, 1:] - f[:, :-1] for f in _cumulative(x, w, cuts[:, 1:], (0, 1, 2)))
-    mid = (cuts[:, 2:] + cuts[:, 1:-1]) / 2
-    first = m1 - mid * m0
-    second = m2 - 2 * mid * m1 + mid * mid * m0
     # tributary spans: [0, c_1], [c_1, c_2], ..., [c_{n-1}, 1] with c_j the centre of link j
-    (fc,) = _cumulative(x, w, np.concatenate([mids, cuts[:, -1:]], -1), (3,))
-    ends = fc                                                           # c_1..c_{n-1}, then 1
-    starts = np.concatenate([np.zeros_like(fc[:, :1]), fc[:, :-1]], -1)  # 0, then c_1..c_{n-1}
+    if direct:
+        n = inner.shape[-1]
+        m0, first, second, comp = span_integrals(
+            x, w, np.concatenate([cuts[:, 1:-1], zero, mids], -1),
+            np.concatenate([cuts[:, 2:], mids, zero + 1.0], -1), direct=True)
+        m0, first, second, comp = m0[:, :n], first[:, :n], second[:, :n], comp[:, n:]
+    else:
+        # the mass moments at the cuts, the compliance at the link centres and the free end
+        m0, m1, m2 = (f[:, 1:] - f[:, :-1] for f in _cumulative(x, w, cuts[:, 1:], (0, 1, 2)))
+        mid = (cuts[:, 2:] + cuts[:, 1:-1]) / 2
+        first = m1 - mid * m0
+        second = m2 - 2 * mid * m1 + mid * mid * m0
+        (fc,) = _cumulative(x, w, np.concatenate([mids, cuts[:, -1:]], -1), (3,))
+        # ends c_1..c_{n-1}, then 1; starts 0, then c_1..c_{n-1}
+        comp = fc - np.concatenate([np.zeros_like(fc[:, :1]), fc[:, :-1]], -1)
     length = cuts[..., 1:] - cuts[..., :-1]
     lj = length[..., 1:]
     return {"cuts": cuts, "length": length, "mass": m0, "com": lj / 2 + first / m0,
             "inertia": second - first ** 2 / m0, "mean_half_width": m0 / (2 * lj),
-            "tributary_compliance": ends - starts}
+            "tributary_compliance": comp}
 
 
 def mass_matrix(links, theta):
@@ -280,12 +317,39 @@ def straight_projected_mass(links, V):
     return np.swapaxes(incl, -1, -2) @ V + np.swapaxes(V, -1, -2) @ strict
 
 
-def prbdm_eigenvalues(x, w, gamma, poses, with_links: bool = False):
-    """Nondimensional PRBDM eigenvalues with every SCF 1 and the ``beam`` law, (..., m, n)
-    ascending: the NumPy twin of :func:`prbdm.model.eigenvalues_unit_k`. Multiply by ``k_i`` and
-    by ``lambda0`` for SI values. x, w (..., S) / L; gamma (..., n+1); poses (m, n) [rad]."""
-    links = links_from_gamma(x, w, gamma)
-    s = 1.0 / (6.0 * links["tributary_compliance"])                      # (..., n)
+def base_stiffness(links, law: str = "beam", batch: BeamBatch | None = None, si: bool = False):
+    """Base joint stiffness s_j (B, n) of :func:`links_from_gamma`'s ``links``, nondimensional
+    (SI / (E t^3)), or with ``si`` in N m/rad: the NumPy twin of
+    :func:`prbdm.model.base_stiffness`.
+
+    ``beam``: s_j = 1 / ∫ dx / (E I(x)) over the joint's tributary span (the centre of the link
+    before it, the clamp for joint 1, to the centre of the link after it, the tip for joint n);
+    with I = 2 w t^3 / 12 that is (E t^3 / 6) / ∫ dx / w. ``paper``: s_j = sqrt(E I_j / m_j) [SI]
+    with I_j the mean area moment and m_j the mass of link j (joint j drives link j, as in the
+    paper's reference code), I_j / m_j = t^2 / (12 rho l_j): Eq. 11 as printed. ``batch`` (the
+    beams' E, rho, t, L) is needed for ``paper`` and for ``si``."""
+    if law not in LAWS:
+        raise BadInput(f"law: must be one of {', '.join(LAWS)}, got {law!r}")
+    if batch is None and (si or law == "paper"):
+        raise BadInput(f"base_stiffness: the law {law!r}{' in SI' if si else ''} needs the beams "
+                       "(batch)")
+    if law == "beam":
+        c = 6.0 * links["tributary_compliance"]
+        return batch.E[:, None] * batch.thickness[:, None] ** 3 / c if si else 1.0 / c
+    L, t, E, rho = (v[:, None] for v in (batch.length, batch.thickness, batch.E, batch.rho))
+    s = np.sqrt(E * t ** 2 / (12 * rho * links["length"][..., 1:] * L))
+    return s if si else s / (E * t ** 3)
+
+
+def prbdm_eigenvalues(x, w, gamma, poses, with_links: bool = False, law: str = "beam",
+                      batch: BeamBatch | None = None, direct: bool = False):
+    """Nondimensional PRBDM eigenvalues with every SCF 1, (..., m, n) ascending: the NumPy twin
+    of :func:`prbdm.model.eigenvalues_unit_k`. Multiply by ``k_i`` and by ``lambda0`` for SI
+    values. x, w (..., S) / L; gamma (..., n+1); poses (m, n) [rad]; ``law`` the base stiffness
+    law (:func:`base_stiffness`; ``paper`` needs ``batch``, the beams of x, w); ``direct`` as in
+    :func:`links_from_gamma`."""
+    links = links_from_gamma(x, w, gamma, direct)
+    s = base_stiffness(links, law, batch)                                # (..., n)
     M = mass_matrix(links, np.asarray(poses, dtype=np.float64))
     d = (1.0 / np.sqrt(s))[..., None, :]
     A = d[..., :, None] * M * d[..., None, :]
@@ -294,15 +358,16 @@ def prbdm_eigenvalues(x, w, gamma, poses, with_links: bool = False):
     return (lam, links) if with_links else lam
 
 
-def link_table(batch: BeamBatch, gamma, k=None) -> dict:
+def link_table(batch: BeamBatch, gamma, k=None, law: str = "beam", direct: bool = False) -> dict:
     """SI link table of each beam's PRBDM: ``joint_x`` [m] (joints 1..n), ``length`` [m] (links
     0..n); for links 1..n ``mass`` [kg], ``com`` [m from the joint], ``inertia`` [kg m^2] about the
-    centre of mass, ``area_moment`` [m^4]; ``base_stiffness`` s_j [N m/rad] (``beam`` law) and,
-    with ``k`` (B, m), ``stiffness`` k_i s_j [N m/rad] per pose (B, m, n)."""
+    centre of mass, ``area_moment`` [m^4]; ``base_stiffness`` s_j [N m/rad] (of ``law``,
+    :func:`base_stiffness`) and, with ``k`` (B, m), ``stiffness`` k_i s_j [N m/rad] per pose
+    (B, m, n); ``direct`` as in :func:`links_from_gamma`."""
     gamma = np.asarray(gamma, dtype=np.float64)
-    lk = links_from_gamma(batch.x, batch.w, gamma)
-    L, t, rho, E = (v[:, None] for v in (batch.length, batch.thickness, batch.rho, batch.E))
-    s = E * t ** 3 / (6.0 * lk["tributary_compliance"])
+    lk = links_from_gamma(batch.x, batch.w, gamma, direct)
+    L, t, rho = (v[:, None] for v in (batch.length, batch.thickness, batch.rho))
+    s = base_stiffness(lk, law, batch, si=True)
     out = {"joint_x": lk["cuts"][..., 1:-1] * L, "length": lk["length"] * L,
            "mass": lk["mass"] * rho * t * L ** 2, "com": lk["com"] * L,
            "inertia": lk["inertia"] * rho * t * L ** 4,
@@ -310,7 +375,6 @@ def link_table(batch: BeamBatch, gamma, k=None) -> dict:
     if k is not None:
         out["stiffness"] = np.asarray(k, dtype=np.float64)[:, :, None] * s[:, None, :]
     return out
-
 
 
 def loss_percent_np(omega_or_lam_pose, lam_truth, r: int, is_lambda: bool = True):

@@ -49,9 +49,9 @@ __all__ = ["BeamTensors", "Links", "links_from_gamma", "mass_matrix", "base_stif
            "frequency_errors", "uniform_gamma", "GAMMA_MIN", "GAMMA_MAX", "LAWS",
            "PrecisionWarning", "PRECISION_RTOL", "PRECISION_FACTOR"]
 
+from .chain import LAWS  # noqa: E402  (the base stiffness laws; chain.base_stiffness is the twin)
 from .constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402  (Eq. 13 bounds on each gamma_j)
 
-LAWS = ("beam", "paper")
 #: a short float type warns when its estimated relative error of the highest eigenvalue,
 #: PRECISION_FACTOR * eps * lam_max / lam_min, exceeds PRECISION_RTOL. The factor is measured:
 #: float32 errors of the highest mode reach 2.4-5.8 eps lam_n / lam_1 (docs/validation.md)

@@ -1,8 +1,11 @@
-"""``prbdm.export`` and ``prbdm export``: the description against the PRBDM and independent
-integrals, the URDF and MJCF as XML, MuJoCo's own linearisation and free vibration of the MJCF
-(skipped without mujoco), atomic writes and bad input (exit 2, one line)."""
+"""``prbdm.export`` and ``prbdm export``: the description against the PRBDM (the NumPy chain it
+is built from, the torch model the fit used) and independent integrals, the URDF and MJCF as
+XML, MuJoCo's own linearisation and free vibration of the MJCF (skipped without mujoco), atomic
+writes and bad input (exit 2, one line)."""
 import json
 import os
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -10,8 +13,9 @@ import pytest
 import torch
 from scipy.integrate import quad
 
+from prbdm.chain import BeamBatch, link_table
 from prbdm.errors import BadInput
-from prbdm.export import URDF_NS, plate_integrals, prbdm_from_fit, to_json, to_mjcf, to_urdf
+from prbdm.export import URDF_NS, prbdm_from_fit, to_json, to_mjcf, to_urdf
 from prbdm.geometry import Beam
 from prbdm.model import BeamTensors, base_stiffness, eigenvalues, links_from_gamma, make_poses
 
@@ -26,18 +30,50 @@ LINEAR_FIT = {"gamma": GAMMA, "k": [0.97], "law": "beam", "poses": [[0.0, 0.0, 0
 
 
 def physical(beam, gamma):
+    """The chain's SI link table (prbdm.chain, what the description is built from), and the torch
+    model's (the fit's) BeamTensors and Links."""
+    table = link_table(BeamBatch.from_beams(beam), np.asarray(gamma)[None], direct=True)
     bt = BeamTensors.from_beams(beam)
     with torch.no_grad():
         links = links_from_gamma(bt, torch.tensor(gamma, dtype=torch.float64))
-        return {k: v.numpy() for k, v in links.physical(bt).items()}, bt, links
+    return {k: v[0] for k, v in table.items() if k != "base_stiffness"}, bt, links
+
+
+def gauss_lamina(beam, a: float, b: float) -> dict:
+    """Lamina integrals of the span [a, b] [m] of ``beam`` by Gauss-Legendre quadrature, the
+    independent check of the chain's Simpson integrals (prbdm.chain.span_integrals): mass [kg],
+    ``com`` (m from ``a``), ``J`` = ∫ (x - x_c)^2 dm and ``Ixx`` = ∫ y^2 dm = rho t ∫ (2/3) w^3 dx
+    [kg m^2], mean half-width [m]. On each piece between stations the half-width is linear and
+    the integrands are polynomials of degree <= 3, which 3-point Gauss-Legendre integrates
+    exactly; moments about ``a``."""
+    xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)
+    cuts = np.unique(np.concatenate([[a, b], xs[(xs > a) & (xs < b)]]))
+    g, wg = np.polynomial.legendre.leggauss(3)
+    lo, hi = cuts[:-1, None], cuts[1:, None]
+    xq = (lo + hi) / 2 + (hi - lo) / 2 * g
+    wq = (hi - lo) / 2 * wg
+    w = np.interp(xq, xs, ws)
+    s = xq - a
+    rho_t = beam.material.rho * beam.thickness
+    mass = rho_t * np.sum(wq * 2 * w)
+    first = rho_t * np.sum(wq * 2 * w * s)
+    second = rho_t * np.sum(wq * 2 * w * s * s)
+    com = first / mass
+    return {"mass": mass, "com": com, "J": second - first * com,
+            "Ixx": rho_t * np.sum(wq * 2.0 / 3.0 * w ** 3),
+            "mean_half_width": mass / (2 * rho_t * (b - a))}
 
 
 # ----------------------------------------------------------------------------- description
-def test_json_link_table_is_links_physical_and_bodies_are_consistent():
+def test_json_link_table_is_the_chains_and_bodies_are_consistent():
     desc = json.loads(to_json(prbdm_from_fit(TAPERED, FIT)))
-    phys, _, _ = physical(TAPERED, GAMMA)
+    phys, bt, links = physical(TAPERED, GAMMA)
+    assert list(desc["links"]) == ["joint_x", "length", "mass", "com", "inertia", "area_moment"]
     for key, v in phys.items():
         assert desc["links"][key] == v.tolist(), key          # bit for bit
+    # the torch model's (the fit's) link table, to round-off
+    for key, v in links.physical(bt).items():
+        np.testing.assert_allclose(desc["links"][key], v.numpy(), rtol=1e-14, atol=0, err_msg=key)
     bodies = desc["bodies"]
     assert [b["name"] for b in bodies] == ["link_0", "link_1", "link_2", "link_3"]
     for j, b in enumerate(bodies[1:]):
@@ -45,13 +81,16 @@ def test_json_link_table_is_links_physical_and_bodies_are_consistent():
         assert b["inertia"][1] == phys["inertia"][j]           # I_yy is exactly the PRBDM's J
         ixx, iyy, izz = b["inertia"]
         assert izz == ixx + iyy and ixx > 0
-    # independent integrals (numpy Gauss) agree with the torch section integrals
+    # every body, the clamped link 0 and the roll inertia I_xx included, against independent
+    # integrals (Gauss-Legendre)
     cuts = np.concatenate([[0], phys["joint_x"], [TAPERED.length]])
-    for j in range(1, 4):
-        ref = plate_integrals(TAPERED, cuts[j], cuts[j + 1])
-        assert ref["mass"] == pytest.approx(phys["mass"][j - 1], rel=1e-13)
-        assert ref["com"] == pytest.approx(phys["com"][j - 1], rel=1e-12)
-        assert ref["J"] == pytest.approx(phys["inertia"][j - 1], rel=1e-11)
+    for j, b in enumerate(bodies):
+        ref = gauss_lamina(TAPERED, cuts[j], cuts[j + 1])
+        assert b["x_start"] == cuts[j]
+        assert b["mass"] == pytest.approx(ref["mass"], rel=1e-14)
+        assert b["com"][0] == pytest.approx(ref["com"], rel=1e-14)
+        assert b["inertia"][:2] == pytest.approx([ref["Ixx"], ref["J"]], rel=1e-13)
+        assert b["mean_half_width"] == pytest.approx(ref["mean_half_width"], rel=1e-14)
     # positions in the parent frames add up to the joint positions; the masses to the beam's
     xs = np.cumsum([b["pos"][0] for b in bodies])
     assert xs[1:] == pytest.approx(phys["joint_x"], rel=1e-15)
@@ -92,7 +131,8 @@ def test_stiffness_springref_and_frequencies_of_the_chosen_pose():
         lam = eigenvalues(TAPERED, torch.tensor(GAMMA, dtype=torch.float64),
                           torch.tensor([FIT["k"][i]], dtype=torch.float64),
                           poses=[FIT["poses"][i][0]])[0]
-        assert desc["omega"] == pytest.approx(np.sqrt(lam.numpy()), rel=1e-14)
+        # the fit's torch model, to the eigensolvers' round-off (eps lam_3 / lam_1)
+        assert desc["omega"] == pytest.approx(np.sqrt(lam.numpy()), rel=1e-13)
         assert desc["pose"]["index"] == i and desc["pose"]["k"] == FIT["k"][i]
     flat = prbdm_from_fit(TAPERED, FIT, pose=4, springref="zero")
     assert [h["springref"] for h in flat["hinges"]] == [0, 0, 0]
@@ -277,6 +317,21 @@ def test_cli_export_every_format(run, files):
             prbdm_from_fit(TAPERED, FIT))
     rc, out, err = run("export", beam, "--from", fit, "-o", "-", "--format", "urdf", "--pose", 3)
     assert rc == 0 and ET.fromstring(out.split("\n", 1)[1]).tag == "robot"
+
+
+def test_cli_export_from_a_file_imports_no_torch(files):
+    """Exporting a given result (no refit: a pose of its own, or its theta = 0 pose for 'rest') is
+    NumPy only, for both stiffness laws: a fresh interpreter never imports torch."""
+    tmp, beam, fit = files
+    paper = tmp / "paper.json"
+    paper.write_text(json.dumps({**LINEAR_FIT, "law": "paper", "k": [2.0e3]}))
+    code = ("import sys; from prbdm import cli; rc = cli.main(sys.argv[1:]); "
+            "assert 'torch' not in sys.modules, 'torch imported'; sys.exit(rc)")
+    for args in (["--from", fit, "--pose", "2", "-o", str(tmp / "m.xml")],
+                 ["--from", str(paper), "-o", str(tmp / "m.urdf")]):
+        r = subprocess.run([sys.executable, "-c", code, "export", beam, *args],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
 
 
 def test_cli_export_runs_the_fit_with_joints(run, files):

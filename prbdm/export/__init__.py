@@ -9,9 +9,11 @@ Two steps, so that any source of a PRBDM can feed the writers:
    :func:`export` does both steps and writes the file atomically.
 
 One module per job: :mod:`.fits` (run a fit, read and check a fit file), :mod:`.description`
-(the description of step 1 and the lamina integrals it uses), :mod:`.writers` (step 2) and
-:mod:`.verify` (the chain's frequencies and free vibration in MuJoCo, for the checks). The names
-below are re-exported here; import them from ``prbdm.export``.
+(the description of step 1), :mod:`.writers` (step 2) and :mod:`.verify` (the chain's
+frequencies and free vibration in MuJoCo, for the checks). The names below are re-exported
+here; import them from ``prbdm.export``. The physics (link table, base stiffness of either law,
+eigenvalues, lamina integrals) is the chain's, :mod:`prbdm.chain`, in NumPy: exporting a given
+fit needs no torch (only :func:`run_fit`, which fits, loads it).
 
 Conventions (docs/export.md has the full list):
 
@@ -36,7 +38,7 @@ Conventions (docs/export.md has the full list):
 """
 from __future__ import annotations
 
-from .description import AXIS, plate_integrals, prbdm_from_fit
+from .description import AXIS, prbdm_from_fit
 from .fits import check_fit, check_fit_links, load_fit, run_fit
 from .verify import mujoco_free_vibration, mujoco_linear_frequencies
 from .writers import (
@@ -52,5 +54,5 @@ from .writers import (
 
 __all__ = ["FORMATS", "AXIS", "prbdm_from_fit", "run_fit", "load_fit", "check_fit",
            "check_fit_links", "to_mjcf", "to_urdf", "to_json", "WRITERS", "export",
-           "format_from_path", "plate_integrals", "URDF_NS", "mujoco_linear_frequencies",
+           "format_from_path", "URDF_NS", "mujoco_linear_frequencies",
            "mujoco_free_vibration"]

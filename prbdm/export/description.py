@@ -1,5 +1,12 @@
 """The description of a PRBDM: bodies, hinges and SI parameters of the chain a fit result makes
-of a beam (:func:`prbdm_from_fit`), in no file format yet; conventions in :mod:`prbdm.export`."""
+of a beam (:func:`prbdm_from_fit`), in no file format yet; conventions in :mod:`prbdm.export`.
+
+Every number comes from the chain's one home, :mod:`prbdm.chain` (NumPy, no torch): the link
+table, the base stiffness of either law, the small-vibration eigenvalues, and the lamina
+integrals of the clamped root link 0 and of every link's roll inertia ``I_xx``
+(:func:`prbdm.chain.span_integrals`), each span integrated on its own (``direct``: round-off,
+the torch twin's numbers to about 1e-15). tests/test_export.py checks the bodies against an
+independent Gauss-Legendre quadrature."""
 from __future__ import annotations
 
 import math
@@ -42,32 +49,6 @@ def _pick_pose(poses: np.ndarray, pose) -> int:
     return int(pose)
 
 
-def plate_integrals(beam, a: float, b: float) -> dict:
-    """Exact lamina integrals of the span [a, b] [m] of ``beam``, independent of the torch code.
-
-    Returns mass [kg], ``com`` (centre of mass, m from ``a``), ``J`` = ∫ (x - x_c)^2 dm and
-    ``Ixx`` = ∫ y^2 dm [kg m^2]. On each piece between stations the half-width is linear and the
-    integrands are polynomials of degree <= 3, which 3-point Gauss-Legendre integrates exactly;
-    moments are taken about ``a`` (no cancellation far from the root).
-    """
-    xs, ws = np.asarray(beam.x, float), np.asarray(beam.half_width, float)
-    cuts = np.unique(np.concatenate([[a, b], xs[(xs > a) & (xs < b)]]))
-    g, wg = np.polynomial.legendre.leggauss(3)
-    lo, hi = cuts[:-1, None], cuts[1:, None]
-    xq = (lo + hi) / 2 + (hi - lo) / 2 * g
-    wq = (hi - lo) / 2 * wg
-    w = np.interp(xq, xs, ws)
-    s = xq - a
-    rho_t = beam.material.rho * beam.thickness
-    mass = rho_t * np.sum(wq * 2 * w)
-    first = rho_t * np.sum(wq * 2 * w * s)
-    second = rho_t * np.sum(wq * 2 * w * s * s)
-    ixx = rho_t * np.sum(wq * 2.0 / 3.0 * w ** 3)
-    com = first / mass
-    return {"mass": float(mass), "com": float(com), "J": float(second - first * com),
-            "Ixx": float(ixx), "mean_half_width": float(mass / (2 * rho_t * (b - a)))}
-
-
 def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
                    damping: float = 0.0) -> dict:
     """Plain description of a PRBDM in SI units, ready for :func:`to_mjcf` / :func:`to_urdf` /
@@ -84,16 +65,15 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
     proportional joint damping, module docstring).
 
     Returns a JSON-ready dict: ``beam``, ``joints`` (n), ``law``, ``gamma``, ``pose`` (index,
-    theta, k, springref), ``links`` (exactly :meth:`prbdm.model.Links.physical`), ``bodies``
+    theta, k, springref), ``links`` (:func:`prbdm.chain.link_table`'s ``joint_x``, ``length``,
+    ``mass``, ``com``, ``inertia``, ``area_moment``), ``bodies``
     (links 0..n: parent, position in the parent frame, mass, centre, diagonal inertia about the
     centre), ``hinges`` (joints 1..n: axis, stiffness, springref, damping, base stiffness),
     ``omega`` / ``freq_hz`` (small-vibration frequencies about the spring reference),
     ``damping_ratio``, ``conventions`` and ``units``.
     """
-    import torch
-
+    from ..chain import BeamBatch, link_table, prbdm_eigenvalues, span_integrals
     from ..geometry import Beam
-    from ..model import BeamTensors, base_stiffness, eigenvalues, links_from_gamma
 
     if not isinstance(beam, Beam):
         raise BadInput(f"beam: must be a prbdm.geometry.Beam, got {type(beam).__name__}")
@@ -105,36 +85,41 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
             or not math.isfinite(damping) or damping < 0:
         raise BadInput(f"--damping: must be a damping ratio >= 0, got {damping!r}")
     n = gamma.size - 1
-    bt = BeamTensors.from_beams(beam)
-    g = torch.as_tensor(gamma)
-    with torch.no_grad():
-        links = links_from_gamma(bt, g)
-        phys = {key: v.numpy().copy() for key, v in links.physical(bt).items()}
-        scale = float(bt.rho * bt.thickness * bt.length ** 4 * bt.lambda0)   # N m/rad
-        s_si = base_stiffness(bt, links, law).numpy() * scale
+    bb = BeamBatch.from_beams(beam)
+    table = link_table(bb, gamma[None], law=law, direct=True)
+    s_si = table.pop("base_stiffness")[0]                               # N m/rad
+    phys = {key: v[0] for key, v in table.items()}
     check_links_match(fit, phys)
     theta_pose = poses[i]
     ref = theta_pose.copy() if springref == "pose" else np.zeros(n)
-    with torch.no_grad():
-        lam = eigenvalues(bt, g, torch.tensor([float(k[i])], dtype=torch.float64),
-                          poses=torch.as_tensor(ref[None, :]), law=law)[0].numpy()
-    omega = np.sqrt(lam)
+    lam_unit = prbdm_eigenvalues(bb.x, bb.w, gamma[None], ref[None, :], law=law, batch=bb,
+                                 direct=True)[0, 0]
+    omega = np.sqrt(lam_unit * bb.lambda0[0] * float(k[i]))
     stiffness = float(k[i]) * s_si
     joint_damping = 2.0 * float(damping) / omega[0] * stiffness
 
     L = beam.length
     cuts = np.concatenate([[0.0], phys["joint_x"], [L]])
+    # the lamina integrals the link table leaves out: link 0 (clamped; mass, centre, J for the
+    # simulator's bodies) and every link's roll inertia, in units of rho t L^2 and rho t L^4
+    rho_t = beam.material.rho * beam.thickness
+    u = cuts / L
+    area, first, second, _, roll = (v[0] for v in span_integrals(
+        bb.x, bb.w, u[None, :-1], u[None, 1:], direct=True, roll=True))
+    ixx_all = roll * rho_t * L ** 4
+    root = {"mass": float(area[0]) * rho_t * L ** 2,
+            "com": float(u[1] / 2 + first[0] / area[0]) * L,
+            "J": float(second[0] - first[0] ** 2 / area[0]) * rho_t * L ** 4}
     bodies = []
     for j in range(n + 1):
         a, b = float(cuts[j]), float(cuts[j + 1])
-        lam_int = plate_integrals(beam, a, b)
         if j == 0:
-            mass, com, iyy = lam_int["mass"], lam_int["com"], lam_int["J"]
+            mass, com, iyy = root["mass"], root["com"], root["J"]
         else:   # the PRBDM's own numbers, exactly
             mass = float(phys["mass"][j - 1])
             com = float(phys["com"][j - 1])
             iyy = float(phys["inertia"][j - 1])
-        ixx = lam_int["Ixx"]
+        ixx = float(ixx_all[j])
         bodies.append({
             "name": f"link_{j}",
             "parent": "world" if j == 0 else f"link_{j - 1}",
@@ -142,7 +127,7 @@ def prbdm_from_fit(beam, fit: dict, pose=None, springref: str = "pose",
             "pos": [0.0 if j == 0 else (a if j == 1 else float(phys["length"][j - 1])), 0.0, 0.0],
             "x_start": a, "length": float(phys["length"][j]),
             "mass": mass, "com": [com, 0.0, 0.0], "inertia": [ixx, iyy, ixx + iyy],
-            "mean_half_width": lam_int["mean_half_width"]})
+            "mean_half_width": mass / (2 * rho_t * (b - a))})
     hinges = [{"name": f"joint_{j}", "parent": f"link_{j - 1}", "child": f"link_{j}",
                "x": float(cuts[j]), "axis": list(AXIS),
                "stiffness": float(stiffness[j - 1]), "springref": float(ref[j - 1]),

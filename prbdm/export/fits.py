@@ -88,7 +88,8 @@ def _numbers(value, name, ndim):
 
 def check_fit(fit: dict):
     """(gamma, k, law, poses) of a fit dictionary, validated; BadInput naming the key."""
-    from ..model import GAMMA_MAX, GAMMA_MIN, LAWS
+    from ..chain import LAWS
+    from ..constants import GAMMA_MAX, GAMMA_MIN
 
     if not isinstance(fit, dict):
         raise BadInput("fit: must be a dict with keys gamma, k, law, poses")
@@ -126,19 +127,16 @@ def check_fit(fit: dict):
 def check_fit_links(beam, fit: dict) -> None:
     """BadInput unless the ``links.joint_x`` a fit dict carries (as ``prbdm fit --json`` prints)
     are this beam's cuts at its gamma: a FIT.json applied to a different panel."""
-    import torch
-
-    from ..model import BeamTensors, links_from_gamma
+    from ..chain import BeamBatch, link_table
 
     gamma = check_fit(fit)[0]
-    bt = BeamTensors.from_beams(beam)
-    with torch.no_grad():
-        phys = {key: v.numpy() for key, v in
-                links_from_gamma(bt, torch.as_tensor(gamma)).physical(bt).items()}
-    check_links_match(fit, phys)
+    table = link_table(BeamBatch.from_beams(beam), gamma[None])
+    check_links_match(fit, {key: table[key][0] for key in ("joint_x", "length")})
 
 
 def check_links_match(fit, phys):
+    """BadInput unless the fit's ``links.joint_x`` (if it carries them) are ``phys["joint_x"]``
+    [m] within ``LINK_MATCH_RTOL`` of the beam's length (the sum of ``phys["length"]``)."""
     links = fit.get("links")
     if not isinstance(links, dict) or "joint_x" not in links:
         return
