@@ -228,6 +228,33 @@ def test_predict_shipped_checkpoint(capsys, beam_file):
         assert o["checkpoint"]["name"] == "plate-n3.safetensors"
 
 
+def test_a_network_trained_at_rest_holds_its_stiffness_at_the_paper_poses(capsys, beam_file):
+    """The shipped beam networks are trained at rest (the shape pose target): predict gives their
+    SCF at every paper pose, the chain's frequencies there from its own inertia, checked here
+    against the torch model (an independent implementation, prbdm.model), and says that the
+    poses are not checked by predict; its self-check at rest stays."""
+    import torch
+
+    from prbdm import model
+    from prbdm.geometry import Beam
+
+    strip = random_beam(0, 10 ** 6, max_half_width=0.02).to_dict()
+    rc, out, err = run(capsys, "predict", beam_file(strip), "--joints", 4, "--json")
+    assert rc == 0, err
+    o = json.loads(out)
+    if o["pose_target"] != "shape":
+        pytest.skip("the shipped beam-n4 is not a rest-trained network")
+    assert len(o["poses"]) == len(model.paper_poses(4)) and len(set(o["k"])) == 1
+    assert o["self_check"]["poses"]["checked"] is False
+    beam = Beam.from_dict(strip)
+    lam = model.eigenvalues(beam, torch.tensor(o["gamma"], dtype=torch.float64),
+                            torch.tensor(o["k"], dtype=torch.float64), "paper")
+    np.testing.assert_allclose(np.asarray(o["omega"]), lam.sqrt().numpy(), rtol=1e-9)
+    # the poses' stiffness is the rest SCF: the stiffness table repeats one row
+    stiff = np.asarray(o["links"]["stiffness"])
+    np.testing.assert_allclose(stiff, np.repeat(stiff[:1], len(o["poses"]), axis=0), rtol=1e-12)
+
+
 @pytest.mark.skipif(not (SHIPPED.parent / "plate-n4.safetensors").is_file(),
                     reason="no shipped plate network")
 def test_auto_falls_back_to_the_beam_network_when_the_plate_network_cannot_answer(capsys,
