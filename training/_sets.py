@@ -5,7 +5,7 @@
 A set's records are its ``ok`` ones with index <= ``max_index`` (-1: all), less those whose beam
 today's truth refuses (prbdm.dataset.refused_by_truth: e.g. plate panels with a corner sharper
 than the mesh resolves, labelled before that limit existed); its sha256
-(prbdm.surrogate.dataset_hash) says that two runs saw the same records.
+(prbdm.surrogate.checkpoint.dataset_hash) says that two runs saw the same records.
 """
 from __future__ import annotations
 

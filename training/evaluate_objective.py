@@ -33,6 +33,7 @@ import numpy as np  # noqa: E402
 
 from prbdm import dataset as ds  # noqa: E402
 from prbdm import surrogate as sg  # noqa: E402
+from prbdm.chain import BeamBatch, loss_percent_np  # noqa: E402
 from prbdm.geometry import Material  # noqa: E402
 from prbdm.poses import pose_set  # noqa: E402
 
@@ -53,7 +54,7 @@ if spec["starts"] == 0:
 refused = ds.refused_by_truth(table, spec)
 table = table[~refused].reset_index(drop=True)
 B = len(table)
-batch = sg.BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
+batch = BeamBatch.from_table(table, Material(**spec["beam"]["material"]))
 omega_t = np.stack(table["omega_truth"].to_numpy())
 r = spec["modes"]
 rows = [dict(method=f"optimised fit ({spec.get('objective', 'eigenvalue')} objective, "
@@ -76,7 +77,7 @@ for path in [p for p in cfg["checkpoints"].split(",") if p]:
                   f"target), the data set's fits at {spec['poses']!r}: compare like with like")
     pred = sg.predict(batch, checkpoint=sur, frequencies=True, warn=False)
     worst = 100 * np.abs(pred.omega[..., :r] / omega_t[:, None, :r] - 1).max(axis=(1, 2))
-    loss = sg.loss_percent_np(pred.omega, omega_t ** 2, r, is_lambda=False)
+    loss = loss_percent_np(pred.omega, omega_t ** 2, r, is_lambda=False)
     rows.append(dict(method=f"network {sur.name} ({sur.objective} objective)",
                      worst_median=float(np.median(worst)),
                      worst_p95=float(np.percentile(worst, 95)),

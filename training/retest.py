@@ -4,7 +4,7 @@
 
 It reads each recorded set (``dataset.sets``, or the one ``dataset``) up to its recorded
 ``max_index``, checks that the records are the ones the network was trained on (each set's
-sha256, prbdm.surrogate.dataset_hash; a set recorded with ``refused_by_truth`` leaves those
+sha256, prbdm.surrogate.checkpoint.dataset_hash; a set recorded with ``refused_by_truth`` leaves those
 records out as training did), takes the test split (index % 10 == 9) and measures it as training
 does (training/_heldout.py). The whole-test figures must equal the recorded ones: then the
 measurement is the same one and ``--write 1`` stores the result, its per-width bands (``by_width``,

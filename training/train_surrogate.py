@@ -165,9 +165,14 @@ import torch  # after the configuration, as in nanoGPT (E402 is off for this fil
 from prbdm import dataset as ds
 from prbdm import model, objectives
 from prbdm import surrogate as sg
+from prbdm.chain import BeamBatch, uniform_gamma
+from prbdm.constants import GAMMA_MIN
 from prbdm.dataset.schema import flatten
-from prbdm.surrogate.checkpoint import member_prefixes
+from prbdm.surrogate.checkpoint import member_prefixes, save_checkpoint
+from prbdm.surrogate.decode import candidate_losses, gauss_select_poses
+from prbdm.surrogate.features import PROFILE_FLOOR, FeatureSpec, feature_names, features
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
+from prbdm.surrogate.prediction import OOD_MARGIN
 
 if device == "auto":
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -242,8 +247,8 @@ if init_gamma:
         _g0 = [float(v) for v in init_gamma.split(",")]
     except ValueError:
         _g0 = []
-    if len(_g0) != n + 1 or min(_g0) <= sg.GAMMA_MIN:
-        _fail(f"--init_gamma: need {n + 1} comma-separated values > {sg.GAMMA_MIN}, got "
+    if len(_g0) != n + 1 or min(_g0) <= GAMMA_MIN:
+        _fail(f"--init_gamma: need {n + 1} comma-separated values > {GAMMA_MIN}, got "
               f"{init_gamma!r}")
 
 # a start checkpoint (fine-tuning, e.g. the Kirchhoff plate's network on Mindlin labels): its
@@ -254,7 +259,7 @@ if init_from:
         _fail("--init_gamma: not with --init_from (the start checkpoint's segmentations are the "
               "start)")
     _R = min(spec["truth_modes"], rfe_segments - 1)
-    _names = sg.feature_names(sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
+    _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
                                              spread=spread, profile=profile))
     try:
@@ -311,11 +316,11 @@ poses = model.make_poses(pose_spec, n)
 m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
-fspec = sg.FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
+fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
                        rfe_coarse=rfe_coarse, spread=spread, profile=profile)
-batch = sg.BeamBatch.from_table(table, material)
-feats = sg.features(batch, fspec)
-names = sg.feature_names(fspec)
+batch = BeamBatch.from_table(table, material)
+feats = features(batch, fspec)
+names = feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
 base = fspec.base_columns(R)           # what the predicted log frequencies correct
@@ -323,7 +328,7 @@ if labelled:
     y_gamma = np.stack(table["gamma"].to_numpy())
     y_logk = np.log(np.stack(table["k"].to_numpy()))
 else:
-    y_gamma = np.broadcast_to(sg.uniform_gamma(n), (N, n + 1)).copy()
+    y_gamma = np.broadcast_to(uniform_gamma(n), (N, n + 1)).copy()
     y_logk = np.zeros((N, m))
 y_corr = log_omega_hat - feats[:, base]
 # one set: the hash of its records (as before); several: of their hashes, in the given order
@@ -383,7 +388,7 @@ def beam_rows(rows):
 
 
 def outputs(net, rows):
-    """Decoded network outputs for data rows (dict, see prbdm.surrogate.decode_torch), with
+    """Decoded network outputs for data rows (dict, see prbdm.surrogate.decode.decode_torch), with
     ``corr`` the predicted correction of the rigid-finite-element log frequencies."""
     d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses_dev, r)
     d["corr"] = d["log_omega_hat"] - RFE[rows]
@@ -427,7 +432,7 @@ def vp_loss(rows, d):
     if objective == "frequency":
         res, _ = objectives.residuals(objective, mu_all[..., :r], lam_hat[rows][:, None, :])
         return wta(objectives.loss(objective, res))
-    _, loss = sg.candidate_losses(mu_all[..., :r], lam_hat[rows])
+    _, loss = candidate_losses(mu_all[..., :r], lam_hat[rows])
     return wta(loss)
 
 
@@ -481,16 +486,16 @@ def make_net(member=0):
         net.head.weight.mul_(0.1)
         net.head.bias.zero_()
         if init_gamma:                                      # checked with the inputs
-            g = torch.tensor([float(v) for v in init_gamma.split(",")]) - sg.GAMMA_MIN
+            g = torch.tensor([float(v) for v in init_gamma.split(",")]) - GAMMA_MIN
         elif labelled:
-            g = (norm["gamma_mean"].cpu() - sg.GAMMA_MIN).clamp_min(1e-3)
+            g = (norm["gamma_mean"].cpu() - GAMMA_MIN).clamp_min(1e-3)
         else:
             g = torch.full((n + 1,), 1.0 / (n + 1))             # no labels: equal links
         # candidates start apart: the mean label, rigid-finite-element-like, a long root link
         # (the two families of fitted optima), then random segmentations
         long_root = torch.full((n + 1,), 0.3 / n)
         long_root[0] = 0.7
-        starts = [g / g.sum(), torch.as_tensor(sg.uniform_gamma(n), dtype=torch.float32),
+        starts = [g / g.sum(), torch.as_tensor(uniform_gamma(n), dtype=torch.float32),
                   long_root]
         gen0 = torch.Generator().manual_seed(seed + member + 1)
         while len(starts) < hypotheses:
@@ -638,7 +643,7 @@ meta = {
     "pose_target": "shape" if pose_spec == "linear" else "straight",
     "features": {"spec": fspec.to_dict(), "names": names,
                  "min": feats[tr].min(0).tolist(), "max": feats[tr].max(0).tolist(),
-                 "ood_margin": sg.OOD_MARGIN,
+                 "ood_margin": OOD_MARGIN,
                  "invariances": "beam truth + beam law: gamma, k and omega / sqrt(E t^2 / (rho "
                                 "L^4)) depend only on w(x)/max(w) on x/L; features use only "
                                 "that shape" + ("; plate adds log_aspect and nu"
@@ -648,21 +653,21 @@ meta = {
                                 + ("; spread adds log_omega_spread, which depends on w/L "
                                    "itself (the load spread's 45 degrees)" if spread else "")
                                 + ("; profile adds log w/max(w) at points of x/L (floored at "
-                                   f"{sg.PROFILE_FLOOR})" if profile else "")},
+                                   f"{PROFILE_FLOOR})" if profile else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,
-                "select_poses": sg.gauss_select_poses(m),
+                "select_poses": gauss_select_poses(m),
                 # the candidate rule predict answers with, and this test is measured with
                 "candidate_rule": "plausible",
                 "parameters": int(sum(p.numel() for p in net.parameters())),
-                "outputs": "see prbdm.surrogate.decode_numpy"},
+                "outputs": "see prbdm.surrogate.decode.decode_numpy"},
     "dataset": {"path": _cli.portable_path(data), "spec": spec, "size": N,
                 "records_ok_read": records_read, "max_index": max_index,
                 "refused_by_truth": sum(s_["refused_by_truth"] for s_ in sets),
                 "manifest_count": manifest.get("count"), "sha256": sha,
                 "sha256_of": "sorted index + x, half_width, thickness, omega_truth, gamma, k "
-                             "(prbdm.surrogate.dataset_hash)",
+                             "(prbdm.surrogate.checkpoint.dataset_hash)",
                 "dataset_git_commit": manifest.get("git_commit"),
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
                           **{k: int(len(v)) for k, v in split.items()}},
@@ -683,7 +688,7 @@ meta = {
     "versions": versions, "git_commit": ds._git_commit(),
 }
 # first under a temporary name beside OUT: OUT is written once, complete, with its test metrics
-sg.save_checkpoint(trial_path, net.weights(), meta)
+save_checkpoint(trial_path, net.weights(), meta)
 
 # ------------------------------------------------------------------------------- 5. test metrics
 sur = sg.load_checkpoint(trial_path)
@@ -693,7 +698,7 @@ if len(te):
     meta["test"] = _heldout.test_metrics(sur, batch.take(te), omega_truth[te], r, loss_fit)
     for _line in _heldout.describe(meta["test"]):
         log(_line)
-sg.save_checkpoint(out_path, net.weights(), meta)
+save_checkpoint(out_path, net.weights(), meta)
 for _p in (trial_path, trial_path.with_suffix(".json")):
     _p.unlink(missing_ok=True)
 log(f"checkpoint {out_path} ({out_path.stat().st_size / 1e3:.0f} kB), training "

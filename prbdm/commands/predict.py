@@ -15,7 +15,7 @@ in training at all (e.g. nu for a plate network trained on one material) is refu
 unless ``--allow-extrapolation``; when ``--truth auto`` (the default) chose that network, the next
 one answers instead (a Mindlin network's panel goes to the Kirchhoff plate's, the nearer physics,
 then to the beam's) and the warning says why. A prediction that is non-finite or outside physical ranges
-(:func:`prbdm.surrogate.physical_problems`) is an error: exit 2 when the beam lies outside the
+(:func:`prbdm.surrogate.prediction.physical_problems`) is an error: exit 2 when the beam lies outside the
 training range, exit 1 otherwise (the checkpoint's fault), one line on stderr, never a number.
 Any other failure is one line and exit 1 too, with or without ``--json``.
 

@@ -48,34 +48,3 @@ from .prediction import (
 __all__ = ["load_checkpoint", "predict", "Surrogate", "Prediction", "default_checkpoint",
            "available_checkpoints", "OutOfDistributionWarning", "ImplausiblePredictionWarning",
            "LowAccuracyWarning"]
-
-# Until every script imports them from their modules, the names this package re-exported before
-# still resolve here (not public: not in __all__, not documented). ``features`` stays bound to
-# the function it has always been here, which hides the module of the same name.
-from .features import features  # noqa: E402,F401
-
-_MOVED = {
-    "prbdm.chain": "BeamBatch link_table loss_percent_np prbdm_eigenvalues span_integrals "
-                   "uniform_gamma",
-    "prbdm.constants": "GAMMA_MAX GAMMA_MIN",
-    "prbdm.surrogate.checkpoint": "CHECKPOINT_FORMAT CHECKPOINT_VERSION PACKAGE_CHECKPOINTS "
-                                  "checkpoint_name dataset_hash matching_training_set "
-                                  "read_checkpoint save_checkpoint training_sets weights_sha256",
-    "prbdm.surrogate.decode": "K_DELTA_SCALE K_MODES SELECT_POSES candidate_losses "
-                              "combine_members decode_numpy decode_torch gamma_from_logits_np "
-                              "gauss_select_poses project_k",
-    "prbdm.surrogate.features": "CHUNK PROFILE_FLOOR FeatureSpec feature_names rfe_log_omega",
-    "prbdm.surrogate.neighbours": "LIMIT_QUANTILE NEIGHBOURS_TENSOR REFERENCE_COUNT "
-                                  "build_reference nearest_distance",
-    "prbdm.surrogate.prediction": "FREQ_FACTOR K_RANGE OOD_MARGIN default_threads "
-                                  "physical_problems",
-}
-_HOME = {name: module for module, names in _MOVED.items() for name in names.split()}
-
-
-def __getattr__(name: str):
-    if name in _HOME:
-        import importlib
-
-        return getattr(importlib.import_module(_HOME[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
