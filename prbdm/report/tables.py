@@ -105,8 +105,8 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         f"- **Checkpoint:** `{ck['name']}` ({ck['training_mode']} mode, {ck['candidates']} "
         f"candidates), trained on {ck['dataset_size']} beams of seed {ck['dataset_seed']} "
         f"(dataset max_index {ck['dataset_max_index']}).",
-        f"- **Model:** n = {c['joints']} joints, {c['modes']} modes, paper poses "
-        f"({', '.join(f'{p:.2f}' for p in c['poses'])} rad), `{c['law']}` law; fits: "
+        f"- **Model:** n = {c['joints']} joints, {c['modes']} modes, {_poses_words(c)}, "
+        f"`{c['law']}` law; fits: "
         f"`fit_many(seed={c['fit_seed']})`, minimising the {c.get('objective', 'eigenvalue')} "
         f"objective; refinement {c['refine_iter']} iterations from the "
         f"network's candidates and the fit's four fixed starts.",
@@ -213,3 +213,12 @@ def render_markdown(res: dict, stability_md: str | None = None, stability_note: 
         lines += ["", "## Stability on stiff and extreme cases"]
     lines += ["", stability_md if stability_md else stability_note]
     return "\n".join(lines) + "\n"
+
+
+def _poses_words(c: dict) -> str:
+    """The poses the report's models are measured at, by the checkpoint's pose target."""
+    if c.get("pose_target") == "shape":
+        return ("at rest (the straight pose; the shape pose target: a network trained there "
+                "and fits made there, their stiffness held at deflected poses)")
+    return f"paper poses ({', '.join(f'{p:.2f}' for p in c['poses'])} rad)"
+
