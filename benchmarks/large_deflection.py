@@ -15,11 +15,13 @@ Methods:
   to the straight beam's ``beam`` truth), with the *energy-consistent* spring law below.
 - ``fit-const``: :func:`prbdm.fit.fit_prbdm` with ``poses="linear"`` (one SCF, fitted at rest),
   constant stiffness at every angle.
-- ``network``: the shipped ``beam-n4`` eigenvalue network's gamma and per-pose SCFs, with the
-  same spring law as ``fit-paper``.
+- ``network``: the shipped ``beam-n4`` network's gamma and SCFs, with the spring law of its pose
+  target (:func:`prbdm.springs.fitted_springs`: constant stiffness for a network trained at rest,
+  ``shape``; the interpolated law below for one trained on the paper's poses, ``straight``).
 
-Spring law of the per-pose SCFs (``fit-paper``, ``network``; :class:`prbdm.springs.InterpolatedSprings`,
-the law ``prbdm simulate`` gives a paper-pose result at large amplitude). Joint j has the potential
+Every fitted chain gets its springs from :func:`prbdm.springs.fitted_springs`, the law
+``prbdm simulate`` gives the same result at large amplitude. The spring law of per-pose SCFs
+(:class:`prbdm.springs.InterpolatedSprings`): joint j has the potential
 
     V_j(theta) = s_j * int_0^|theta| k(u) u du,   torque  dV_j/dtheta = s_j k(|theta|) theta,
 
@@ -39,10 +41,14 @@ Tests:
    Error: ``|r_tip(chain) - r_tip(rod)| / L``.
 2. Free vibration released from rest in the static shape under a vertical tip force with a tip
    angle of 10, 30, 60 deg, each model from its own equilibrium at that tip angle (the chain's
-   tip angle is its last link's angle). Period: time between the first two downward crossings
-   of z = 0 by the tip (the rod's definition); errors ``|T / T_rod - 1|`` and the RMS over
-   ``t in [0, 5 T_rod]`` of ``|r_tip(chain, t) - r_tip(rod, t)|`` divided by the rod's initial
-   tip deflection ``z_tip(0)``.
+   tip angle is its last link's angle). Period: the mean time between successive downward
+   crossings of z = 0 by the tip over the first 5 periods (the rod's and ``prbdm simulate``'s
+   definition; the first period alone, ``first_period_error``, moves with the excited higher
+   modes); errors ``|T / T_rod - 1|`` and the RMS over ``t in [0, 5 T_rod]`` of
+   ``|r_tip(chain, t) - r_tip(rod, t)|`` divided by the rod's initial tip deflection
+   ``z_tip(0)``. The rod: :func:`prbdm.truth.rod.rod_response` at the discretisation
+   ``prbdm simulate`` uses (:class:`prbdm.simulate.ReferenceSettings`), run again at half the
+   steps: the change of its mean period is the release's ``resolution``.
 
 Run:  python benchmarks/large_deflection.py [--quick] [--json FILE] [--plot FILE]
 """
@@ -62,9 +68,11 @@ from scipy.integrate import solve_ivp
 
 from prbdm.chain import ChainDynamics, TipLoadStatics, joint_accelerations
 from prbdm.classical import HOWELL_1R, SU_3R, joint_stiffness
+from prbdm.errors import BadInput
 from prbdm.geometry import Beam, Material, random_beam
-from prbdm.model import BeamTensors, base_stiffness, links_from_gamma, paper_poses, uniform_gamma
-from prbdm.springs import InterpolatedSprings, LinearSprings
+from prbdm.model import BeamTensors, base_stiffness, links_from_gamma, uniform_gamma
+from prbdm.simulate import ReferenceSettings
+from prbdm.springs import LinearSprings, fitted_springs
 from prbdm.truth.rod import rod_response, rod_static
 
 DEG = math.pi / 180.0
@@ -73,6 +81,12 @@ REPORT_STATIC = {"vertical": (30, 60, 75), "45deg": (15, 30, 40)}
 RELEASE_ANGLES = (10.0, 30.0, 60.0)
 PERIODS = 5
 METHODS = ("howell-1r", "su-3r", "rfe-4", "fit-paper", "fit-const", "network", "rfe-20")
+#: the rod's dynamics: the discretisation and steps per linear period of ``prbdm simulate``'s
+#: large-amplitude reference (one home: prbdm.simulate.ReferenceSettings), with its check at half
+#: the steps (``resolution`` in the JSON)
+_REF = ReferenceSettings()
+ROD_DYNAMICS = {"elements": _REF.rod_elements, "degree": _REF.rod_degree,
+                "steps": _REF.rod_steps}
 
 
 def _log(msg):
@@ -166,14 +180,14 @@ class Chain:
         T_guess = t_eval[-1] / periods
         crossing.terminal = False
         scale = float(np.max(np.abs(th0)))
-        for extra in (1.5, 3.0, 10.0):            # long enough for two downward crossings
+        for extra in (1.5, 3.0, 10.0):            # long enough for periods + 1 crossings
             t_end = t_eval[-1] + extra * T_guess
             sol = solve_ivp(self.rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol,
                             atol=rtol * scale * 1e-2, events=crossing, dense_output=True)
             if not sol.success:
                 raise RuntimeError(f"{self.name}: integration failed: {sol.message}")
             tc = sol.t_events[0]
-            if tc.size >= 2:
+            if tc.size >= periods + 1:
                 break
         Y = sol.sol(t_eval)
         tips = np.array([self.tip(Y[:n, i]) for i in range(t_eval.size)])
@@ -199,13 +213,26 @@ def make_chain(beam: Beam, name: str, gamma, springs_fn, info=None) -> Chain:
                  L=beam.length, info=dict(info or {}, gamma=[float(v) for v in gamma]))
 
 
+def make_fitted_chain(beam: Beam, name: str, result: dict, info: dict) -> Chain:
+    """The chain of a fit result (gamma, k, poses, pose_target) with the spring law it was
+    fitted with (:func:`prbdm.springs.fitted_springs`); ``info`` gains that law's record."""
+    law = {}
+
+    def springs(s):
+        sp, law["springs"] = fitted_springs(result, s)
+        return sp
+    ch = make_chain(beam, name, np.asarray(result["gamma"], float), springs,
+                    dict(info, k=np.atleast_1d(np.asarray(result["k"], float)).tolist()))
+    ch.info.update(law)
+    return ch
+
+
 def build_methods(beam: Beam, methods=METHODS, starts=None, seed=0, sur=None) -> dict:
     """The chains of ``methods`` for ``beam``."""
     from prbdm.fit import fit_prbdm
     from prbdm.truth import bending_frequencies
 
     out = {}
-    pose_angles = paper_poses(4)[:, 0].numpy()
     omega = None
     for m in methods:
         t0 = time.perf_counter()
@@ -225,23 +252,19 @@ def build_methods(beam: Beam, methods=METHODS, starts=None, seed=0, sur=None) ->
                 kw["starts"] = starts
             fit = fit_prbdm(beam, omega, joints=4,
                             seed=seed, **kw)
-            gamma, k = np.asarray(fit.gamma), np.asarray(fit.k)
-            info = {"k": k.tolist(), "loss_percent": float(fit.loss_percent)}
-            if m == "fit-paper":
-                ch = make_chain(beam, m, gamma,
-                                lambda s, k=k: InterpolatedSprings(s, pose_angles, k), info)
-            else:
-                ch = make_chain(beam, m, gamma, lambda s, k=k: LinearSprings(k[0] * s), info)
+            result = {"gamma": fit.gamma, "k": fit.k, "poses": fit.poses,
+                      "pose_target": "straight" if m == "fit-paper" else "shape"}
+            ch = make_fitted_chain(beam, m, result, {"loss_percent": float(fit.loss_percent)})
         elif m == "network":
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 pred = sur.predict([beam])
-            gamma, k = np.asarray(pred.gamma[0]), np.asarray(pred.k[0])
-            angles = np.asarray(pred.poses)[:, 0]
-            ch = make_chain(beam, m, gamma, lambda s, k=k: InterpolatedSprings(s, angles, k),
-                            {"k": k.tolist(),
-                             "warnings": [str(w.message)[:200] for w in caught]
-                             + list(map(str, pred.warnings))})
+            result = {"gamma": pred.gamma[0], "k": pred.k[0], "poses": pred.poses,
+                      "pose_target": sur.pose_target}
+            ch = make_fitted_chain(beam, m, result, {
+                "checkpoint": sur.name, "objective": sur.objective,
+                "warnings": [str(w.message)[:200] for w in caught]
+                + list(map(str, pred.warnings))})
         else:
             raise ValueError(m)
         ch.info["build_s"] = time.perf_counter() - t0
@@ -275,33 +298,64 @@ def static_paths(beam: Beam, chains: dict) -> dict:
     return res
 
 
+def _rod_resolution(beam, angle, rod, rod_kw):
+    """(resolution, first, note): the relative change of the mean period (``resolution``, as
+    ``prbdm simulate`` measures it) and of the first period (``first``) when the release ``rod``
+    runs again at half the steps; None, None and the reason where that run fails (its implicit
+    midpoint iteration does not converge at the coarser step)."""
+    kw = dict(rod_kw, steps=max(16, rod_kw["steps"] // 2))
+    try:
+        half = rod_response(beam, angle, periods=PERIODS, check=False, **kw)
+    except BadInput as exc:
+        return None, None, f"at {kw['steps']} steps: {exc}"
+    return (abs(half.period / rod.period - 1.0), abs(half.periods[0] / rod.periods[0] - 1.0),
+            None)
+
+
 def vibrations(beam: Beam, chains: dict, angles=RELEASE_ANGLES, rod_kw=None) -> dict:
     """Free vibration released from the static shape at each tip angle."""
     rod_kw = dict(rod_kw or {})
     out = {}
     for a in angles:
         t0 = time.perf_counter()
-        rod = rod_response(beam, a * DEG, periods=PERIODS, **rod_kw)
-        T_rod = float(rod.periods[0])
+        try:
+            rod = rod_response(beam, a * DEG, periods=PERIODS, check=False, **rod_kw)
+        except BadInput as exc:                  # recorded; the other releases go on
+            out[f"{a:g}"] = {"rod": {"error": str(exc), "time_s": time.perf_counter() - t0},
+                             "methods": {}}
+            _log(f"  {a:g} deg rod: {exc}")
+            continue
+        resolution, res_first, note = _rod_resolution(beam, a * DEG, rod, rod_kw)
+        T_rod, T1_rod = float(rod.period), float(rod.periods[0])
         sel = rod.t <= PERIODS * float(rod.period) * (1 + 1e-12)
         t = rod.t[sel]
         rod_tip = np.stack([rod.tip_x[sel], rod.tip_z[sel]], axis=1)
         z0 = float(rod.tip_z[0])
-        entry = {"rod": {"period_s": T_rod, "mean_period_s": float(rod.period),
+        entry = {"rod": {"period_s": T_rod, "first_period_s": T1_rod,
                          "periods_s": rod.periods.tolist(), "tip0": rod_tip[0].tolist(),
                          "load_N": float(np.hypot(*rod.equilibrium.force)),
+                         "resolution": resolution, "resolution_first_period": res_first,
+                         "resolution_note": note,
                          "energy_drift": rod.energy_drift, "mesh": rod.mesh,
                          "time_s": time.perf_counter() - t0}, "methods": {}}
-        _log(f"  {a:g} deg rod: period {T_rod:.6g} s, {entry['rod']['time_s']:.1f} s")
+        _log(f"  {a:g} deg rod: period {T_rod:.6g} s, resolution {resolution}, "
+             f"{entry['rod']['time_s']:.1f} s")
         for name, ch in chains.items():
             t1 = time.perf_counter()
-            th0, P = ch.release_shape(a * DEG, load_guess=entry["rod"]["load_N"])
-            tips, periods, drift = ch.release(th0, t)
-            T = float(periods[0]) if periods.size else math.nan
+            try:
+                th0, P = ch.release_shape(a * DEG, load_guess=entry["rod"]["load_N"])
+                tips, periods, drift = ch.release(th0, t)
+            except RuntimeError as exc:            # recorded; not in the summary
+                entry.setdefault("errors", {})[name] = str(exc)
+                _log(f"  {a:g} deg {name}: {exc}")
+                continue
+            T = float(np.mean(periods[:PERIODS])) if periods.size >= PERIODS else math.nan
+            T1 = float(periods[0]) if periods.size else math.nan
             diff = np.linalg.norm(tips - rod_tip, axis=1)
             entry["methods"][name] = {
                 "period_s": T, "periods_s": periods.tolist(),
                 "period_error": abs(T / T_rod - 1.0),
+                "first_period_error": abs(T1 / T1_rod - 1.0),
                 "trajectory_rms": float(np.sqrt(np.mean(diff ** 2)) / z0),
                 "tip0": tips[0].tolist(), "load_N": P, "energy_drift": drift,
                 "time_s": time.perf_counter() - t1}
@@ -355,7 +409,25 @@ def summarise(records: list, methods) -> dict:
     return summ
 
 
-def table(summ: dict, count: int) -> str:
+def rod_summary(records: list) -> dict:
+    """Per release angle, over the beams with dynamics: the rod's resolution (its largest period
+    change at half the steps) and run time, median and worst."""
+    out = {}
+    for a in RELEASE_ANGLES:
+        rods = [r["vibration"][f"{a:g}"]["rod"] for r in records
+                if "vibration" in r and f"{a:g}" in r["vibration"]]
+        ok = [v for v in rods if "error" not in v]
+        if not ok:
+            continue
+        e = out[f"{a:g}"] = {"beams": len(ok), "failed": len(rods) - len(ok)}
+        for q in ("resolution", "time_s"):
+            vals = [v[q] for v in ok if v[q] is not None]
+            e[q] = ({"median": float(np.median(vals)), "worst": float(np.max(vals)),
+                     "beams": len(vals)} if vals else None)
+    return out
+
+
+def table(summ: dict, count: int, rods: dict | None = None) -> str:
     cols = [("static_vertical_30", "tip 30°"), ("static_vertical_60", "tip 60°"),
             ("static_vertical_75", "tip 75°"), ("static_45deg_40", "45° F, 40°")]
     lines = [f"Static tip-position error / L at matched load, median over {count} beams "
@@ -368,7 +440,7 @@ def table(summ: dict, count: int) -> str:
     dyn = max([v["beams"] for s in summ.values() for k, v in s.items()
                if k.startswith("period")] or [0])
     lines += ["", f"Free vibration (released from the static shape), median over {dyn} beams "
-              "(worst in brackets): first-period error | tip-trajectory RMS / initial deflection",
+              "(worst in brackets): period error (mean of 5) | tip-trajectory RMS / initial deflection",
               "",
               "| method | " + " | ".join(f"period {a:g}°" for a in RELEASE_ANGLES) + " | "
               + " | ".join(f"RMS {a:g}°" for a in RELEASE_ANGLES) + " |",
@@ -381,6 +453,12 @@ def table(summ: dict, count: int) -> str:
                 cells.append(f"{100 * v['median']:.2f} % ({100 * v['worst']:.1f} %)" if v
                              else "-")
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    if rods:
+        cells = [f"{100 * rods[f'{a:g}']['resolution']['median']:.3f} % "
+                 f"({100 * rods[f'{a:g}']['resolution']['worst']:.3f} %)"
+                 if rods.get(f"{a:g}", {}).get("resolution") else "-" for a in RELEASE_ANGLES]
+        lines.append("| rod resolution | " + " | ".join(cells) + " |"
+                     + " |" * len(RELEASE_ANGLES))
     return "\n".join(lines)
 
 
@@ -398,19 +476,19 @@ def plot(records: list, methods, path) -> None:
             err = np.array([r["static"][key]["methods"][m]["tip_error"] for r in records])
             ax.semilogy(ang, np.median(err, 0), "-o", color=c, ms=3, label=m)
             ax.semilogy(ang, err.max(0), ":", color=c, lw=0.8)
-        vib = [r for r in records if "vibration" in r
-               and m in r["vibration"][f"{RELEASE_ANGLES[0]:g}"]["methods"]]
-        if vib:
-            pe = np.array([[r["vibration"][f"{a:g}"]["methods"][m]["period_error"]
-                            for a in RELEASE_ANGLES] for r in vib])
-            axes[2].semilogy(RELEASE_ANGLES, np.median(pe, 0), "-o", color=c, ms=3, label=m)
-            axes[2].semilogy(RELEASE_ANGLES, pe.max(0), ":", color=c, lw=0.8)
+        pe = [[r["vibration"][f"{a:g}"]["methods"][m]["period_error"] for r in records
+               if m in r.get("vibration", {}).get(f"{a:g}", {}).get("methods", {})]
+              for a in RELEASE_ANGLES]
+        if all(pe):
+            axes[2].semilogy(RELEASE_ANGLES, [np.median(v) for v in pe], "-o", color=c, ms=3,
+                             label=m)
+            axes[2].semilogy(RELEASE_ANGLES, [max(v) for v in pe], ":", color=c, lw=0.8)
     axes[0].set_title("tip force perpendicular to the beam", fontsize=9)
     axes[1].set_title("tip force at 45° to the beam", fontsize=9)
     for ax in axes[:2]:
         ax.set_xlabel("rod tip angle [deg]")
         ax.set_ylabel("|tip position error| / L")
-    nvib = sum("vibration" in r for r in records)
+    nvib = sum(bool(r.get("vibration")) for r in records)
     axes[2].set_title(f"free vibration from a static shape ({nvib} beams)", fontsize=9)
     axes[2].set_xlabel("release tip angle [deg]")
     axes[2].set_ylabel("first-period error")
@@ -425,7 +503,7 @@ def plot(records: list, methods, path) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true",
-                    help="the Table-2 and tapered beams and 2 random strips, cheaper rod dynamics")
+                    help="the Table-2 and tapered beams and 2 random strips")
     ap.add_argument("--random", type=int, default=None, help="random strips (default 20; quick 2)")
     ap.add_argument("--seed", type=int, default=0, help="random_beam seed (default 0)")
     ap.add_argument("--beams", type=int, default=None,
@@ -437,21 +515,27 @@ def main(argv=None) -> int:
                     help="methods of the free-vibration test (default all but rfe-20, whose "
                          "stiff 20-link chain costs minutes per release)")
     ap.add_argument("--no-dynamics", action="store_true")
+    ap.add_argument("--dynamics-beams", type=int, default=None,
+                    help="the free-vibration test on the first N beams of the list only "
+                         "(default all; the rod costs minutes per release on a random strip)")
     ap.add_argument("--starts", type=int, default=None, help="fit starts (default the fit's)")
-    ap.add_argument("--rod-elements", type=int, default=None)
-    ap.add_argument("--rod-degree", type=int, default=None)
-    ap.add_argument("--rod-rtol", type=float, default=None)
+    ap.add_argument("--rod-elements", type=int, default=None,
+                    help=f"rod elements per unit length (default {ROD_DYNAMICS['elements']})")
+    ap.add_argument("--rod-degree", type=int, default=None,
+                    help=f"rod element degree (default {ROD_DYNAMICS['degree']})")
+    ap.add_argument("--rod-steps", type=int, default=None,
+                    help=f"rod steps per linear period (default {ROD_DYNAMICS['steps']})")
     ap.add_argument("--json", default=None)
     ap.add_argument("--plot", default=None)
     args = ap.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     global RELEASE_ANGLES
     if args.release:
         RELEASE_ANGLES = tuple(float(v) for v in args.release.split(","))
     count = args.random if args.random is not None else (2 if args.quick else 20)
-    rod_kw = ({"elements": 4, "degree": 3, "rtol": 1e-8} if args.quick
-              else {"elements": 4, "degree": 4, "rtol": 1e-9})
+    rod_kw = dict(ROD_DYNAMICS)
     for k, v in (("elements", args.rod_elements), ("degree", args.rod_degree),
-                 ("rtol", args.rod_rtol)):
+                 ("steps", args.rod_steps)):
         if v is not None:
             rod_kw[k] = v
     methods = tuple(args.methods.split(","))
@@ -478,16 +562,17 @@ def main(argv=None) -> int:
             _save(args, records, methods, rod_kw, count, time.perf_counter() - t0)
     dyn_methods = [m for m in args.dynamics_methods.split(",") if m in methods]
     if not args.no_dynamics:
-        for b, rec, chains in zip(blist, records, chain_sets):
+        last = f"{RELEASE_ANGLES[-1]:g}"
+        for b, rec, chains in list(zip(blist, records, chain_sets))[:args.dynamics_beams]:
             run_dynamics(b, rec, chains, dyn_methods, rod_kw, RELEASE_ANGLES)
+            got = rec["vibration"][last]["methods"]
             print(f"{b.name}: dynamics {rec['dynamics_time_s']:.1f} s; period error at "
-                  f"{RELEASE_ANGLES[-1]:g} deg: " + ", ".join(
-                      f"{m} {rec['vibration'][f'{RELEASE_ANGLES[-1]:g}']['methods'][m]['period_error']:.1e}"
-                      for m in dyn_methods), flush=True)
+                  f"{last} deg: " + ", ".join(f"{m} {got[m]['period_error']:.1e}" for m in got),
+                  flush=True)
             if args.json:
                 _save(args, records, methods, rod_kw, count, time.perf_counter() - t0)
     summ = summarise(records, methods)
-    print(table(summ, len(records)))
+    print(table(summ, len(records), rod_summary(records)))
     print(f"total {time.perf_counter() - t0:.0f} s")
     if args.json:
         _save(args, records, methods, rod_kw, count, time.perf_counter() - t0, summ)
@@ -497,11 +582,12 @@ def main(argv=None) -> int:
 
 
 def _save(args, records, methods, rod_kw, count, elapsed, summ=None):
-    doc = {"command": "python benchmarks/large_deflection.py " + " ".join(sys.argv[1:]),
+    doc = {"command": "python benchmarks/large_deflection.py " + " ".join(args.argv),
            "methods": list(methods), "rod_dynamics": rod_kw, "random_beams": count,
            "random_seed": args.seed, "release_angles_deg": list(RELEASE_ANGLES),
            "periods": PERIODS, "time_s": elapsed,
            "summary": summ if summ is not None else summarise(records, methods),
+           "rod_summary": rod_summary(records),
            "beams": records}
     with open(args.json, "w") as f:
         json.dump(doc, f, indent=1)

@@ -22,8 +22,10 @@ def bench():
     return mod
 
 
-def test_interpolated_springs_are_conservative(bench):
-    sp = bench.InterpolatedSprings([2.0, 3.0], [0.1, 0.2, 0.3], [1.2, 1.5, 1.4])
+def test_interpolated_springs_are_conservative():
+    from prbdm.springs import InterpolatedSprings
+
+    sp = InterpolatedSprings([2.0, 3.0], [0.1, 0.2, 0.3], [1.2, 1.5, 1.4])
     rng = np.random.default_rng(0)
     for _ in range(20):
         th = rng.uniform(-0.6, 0.6, 2)
@@ -52,6 +54,18 @@ def test_rfe_chain_statics_converge_to_the_rod(bench, make):
     assert errs[40] < errs[10] < errs[4], errs
 
 
+def test_network_chain_has_the_spring_law_of_its_pose_target(bench):
+    from prbdm import surrogate
+    from prbdm.springs import LAW_OF_POSE_TARGET, InterpolatedSprings, LinearSprings
+
+    sur = surrogate.load_checkpoint(surrogate.default_checkpoint(4, "beam", "eigenvalue"))
+    ch = bench.build_methods(bench.tapered_beam(), ("network",), sur=sur)["network"]
+    law = LAW_OF_POSE_TARGET[sur.pose_target]
+    assert ch.info["springs"]["law"] == law
+    assert ch.info["springs"]["pose_target"] == sur.pose_target
+    assert isinstance(ch.springs, LinearSprings if law == "constant" else InterpolatedSprings)
+
+
 @pytest.mark.slow
 def test_quick_run_on_one_beam(bench, tmp_path):
     out = tmp_path / "ld.json"
@@ -68,3 +82,6 @@ def test_quick_run_on_one_beam(bench, tmp_path):
         assert v["energy_drift"] < 1e-6
         s = doc["summary"][m]
         assert set(s) >= {"static_vertical_60", "period_error_10", "trajectory_rms_10"}
+    rod = rec["vibration"]["10"]["rod"]
+    assert rod["mesh"]["steps"] == bench.ROD_DYNAMICS["steps"]
+    assert 0 < rod["resolution"] < 1e-2 and rod["resolution_note"] is None
