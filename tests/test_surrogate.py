@@ -332,7 +332,9 @@ def test_shipped_checkpoint():
     beams = [random_beam(0, 10 ** 6 + i) for i in range(2000)]
     p = sur.predict(beams, warn=False)
     assert np.all(np.abs(p.gamma.sum(-1) - 1) < 1e-12) and np.all(p.k > 0)
-    assert np.all(np.isfinite(p.omega)) and p.omega.shape == (2000, 6, 4)
+    # trained at rest (the shape pose target): one pose, the straight one
+    m = 1 if sur.pose_target == "shape" else 6
+    assert np.all(np.isfinite(p.omega)) and p.omega.shape == (2000, m, 4)
 
 
 # ------------------------------------------------------------------------ prediction API
@@ -718,7 +720,8 @@ def test_physical_problems_flag_broken_predictions(tmp_path, tiny_set):
 
 
 #: test-split median loss [%] of each shipped checkpoint as docs/reference/checkpoints.md states it
-DOCUMENTED_MEDIAN_LOSS = {3: 0.208, 4: 0.226, 5: 0.331}
+# the test splits' loss medians of the networks trained at rest (docs/reference/checkpoints.md)
+DOCUMENTED_MEDIAN_LOSS = {3: 0.082, 4: 0.142, 5: 0.171}
 
 
 @pytest.mark.parametrize("joints", sorted(DOCUMENTED_MEDIAN_LOSS))
@@ -745,45 +748,42 @@ def test_shipped_checkpoint_is_as_accurate_as_documented_on_held_out_beams(joint
     assert np.median(np.abs(pred.omega_truth[:, :r] / omega[:, :r] - 1)) <= 5e-4
 
 
-def test_frequency_checkpoint_keeps_every_mode_closer_than_the_eigenvalue_one():
-    """beam-n4-frequency (issue 18) on 16 beams of seed 1 against the beam truth: the median of
-    the worst per-mode frequency error over the poses within 2x the 5.5 % measured on 1,000
-    held-out beams (docs/reference/checkpoints.md, training/evaluate_objective.py), and below the paper-loss
-    network's on the same beams (22.7 % there)."""
+def test_frequency_checkpoint_keeps_every_mode_within_its_recorded_figure():
+    """beam-n4-frequency (issue 18; the paper's poses) on 16 beams of seed 1 against the beam
+    truth: the median of the worst per-mode frequency error over the poses within 2x the 5.5 %
+    measured on 1,000 held-out beams (docs/validation.md, training/evaluate_objective.py); the
+    paper-loss network it was compared with (22.7 % there) is retired: beam-n4 is trained at rest."""
     from prbdm.geometry import random_beam
     from prbdm.truth import bending_frequencies
 
+    path = PACKAGE_CHECKPOINTS / "beam-n4-frequency.safetensors"
+    if not path.is_file():
+        pytest.skip(f"{path.name} not shipped in this tree")
     beams = [random_beam(1, i) for i in range(16)]
     omega = np.array([bending_frequencies(b, "beam", 5).omega for b in beams])
-    worst = {}
-    for name in ("beam-n4-frequency", "beam-n4"):
-        path = PACKAGE_CHECKPOINTS / f"{name}.safetensors"
-        if not path.is_file():
-            pytest.skip(f"{path.name} not shipped in this tree")
-        pred = sg.predict(beams, checkpoint=sg.load_checkpoint(path), frequencies=True, warn=False)
-        worst[name] = np.abs(pred.omega[..., :4] / omega[:, None, :4] - 1).max(axis=(1, 2))
+    pred = sg.predict(beams, checkpoint=sg.load_checkpoint(path), frequencies=True, warn=False)
+    worst = np.abs(pred.omega[..., :4] / omega[:, None, :4] - 1).max(axis=(1, 2))
     assert sg.load_checkpoint(sg.default_checkpoint(4, "beam", "frequency")).objective == \
         "frequency"
-    assert np.median(worst["beam-n4-frequency"]) <= 2 * 0.055
-    assert np.median(worst["beam-n4-frequency"]) < np.median(worst["beam-n4"])
-
+    assert np.median(worst) <= 2 * 0.055
 
 
 def test_the_physics_chooses_a_plausible_candidate():
     """The candidate of least loss may leave mode 1 far off its own predicted truth (the loss
-    weighs the highest mode most): on held-out seed-1 beams beam-n4's did on about one beam in
-    eight (76 % below on beam 24, a rigid root link over a flexible neck). Among its other
-    candidates one has every mode within SELF_CHECK_IMPLAUSIBLE: the rule predict answers with
-    takes it ('plausible'); the rule its recorded test was measured with ('loss') does not."""
+    weighs the highest mode most): on 80 wide seed-1 panels mindlin-n4's (trained on the paper's
+    eigenvalue loss at the paper's poses) did on 31 % (the paper-pose beam-n4 on one beam in eight;
+    a rigid root link over a flexible neck). Among its other candidates one mostly has every mode
+    within SELF_CHECK_IMPLAUSIBLE: the rule predict answers with takes it ('plausible', 2.5 %
+    left); the rule its recorded test was measured with ('loss') does not."""
     import warnings
 
     from prbdm.geometry import random_beam
 
-    path = PACKAGE_CHECKPOINTS / "beam-n4.safetensors"
+    path = PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
     if not path.is_file():
-        pytest.skip("beam-n4 is not shipped")
+        pytest.skip("mindlin-n4 is not shipped")
     sur = sg.load_checkpoint(path)
-    beams = [random_beam(1, i) for i in range(80)]
+    beams = [random_beam(1, i, min_half_width=0.01) for i in range(80)]
     rates = {}
     for rule in ("loss", "plausible"):
         sur.candidate_rule = rule
@@ -793,5 +793,5 @@ def test_the_physics_chooses_a_plausible_candidate():
         rates[rule] = pred.implausible.mean()
         if rule == "loss":
             loss_rule = pred
-    assert rates["loss"] > 0.05 and rates["plausible"] <= 0.02
-    assert loss_rule.implausible[24]
+    assert rates["loss"] > 0.2 and rates["plausible"] <= 0.05
+    assert loss_rule.implausible[1] and not pred.implausible[1]

@@ -60,9 +60,11 @@ def test_mindlin_eigenvalues_equal_arpack_on_the_assembled_matrices():
     K, M, _, _ = _matrices(basis, nu, tau, 5.0 / 6.0, keep=free)
     res = solve_mindlin(beam, 3, elements=4)
     lam = np.array([e["lambda"] for e in res["entries"]])
-    ref = np.sort(spla.eigsh(K, k=len(lam), M=M, sigma=0.0, which="LM", tol=1e-12)[0])
-    # ARPACK's LU of the unscaled K rounds the first eigenvalue ~4e-9 apart (the solver's
-    # scaled, condensed one agrees with the assembled path to ~2e-8 on the paper's panels)
-    np.testing.assert_allclose(lam, ref, rtol=1e-8)
+    v0 = np.random.default_rng(0).standard_normal(K.shape[0])
+    ref = np.sort(spla.eigsh(K, k=len(lam), M=M, sigma=0.0, which="LM", tol=1e-12, v0=v0)[0])
+    # ARPACK's LU of the unscaled K rounds the first eigenvalue 4e-9 to 1.1e-8 apart (measured
+    # with random start vectors; the solver's scaled, condensed one agrees with the assembled
+    # path to ~2e-8 on the paper's panels); the truth's own tolerance is 3e-4
+    np.testing.assert_allclose(lam, ref, rtol=5e-8)
     again = solve_mindlin(beam, 3, elements=4)
     assert [e["lambda"] for e in again["entries"]] == list(lam)     # the same digits

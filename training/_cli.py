@@ -155,18 +155,24 @@ def parse(prog: str, description: str, settings: dict, argv=None, positional=(),
 
 
 def portable_path(path) -> str:
-    """``path`` as it is best recorded in committed metadata, never a machine path: relative to
-    the repository when it lies inside it, else as given when relative, else relative to the
-    working directory when it lies inside that (where the run was), else its file name; several,
-    comma-separated, each so."""
+    """``path`` as it is best recorded in committed metadata: relative to the repository when
+    it lies inside it (no machine paths), else as given; several, comma-separated, each so."""
     if "," in str(path):
         return ",".join(portable_path(part) for part in str(path).split(","))
     p = Path(path)
-    for base in (REPO, None):
-        if base is None:
-            if not p.is_absolute():
-                return str(path)
-            base = Path.cwd()
+    try:
+        return p.resolve().relative_to(REPO).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def output_path(path) -> str:
+    """Where a run wrote its output, as recorded in committed metadata, never a machine path:
+    relative to the repository when inside it, else relative to the working directory when
+    inside that (where the run was), else the file name. (Inputs keep :func:`portable_path`:
+    they must be found again.)"""
+    p = Path(path)
+    for base in (REPO, Path.cwd()):
         try:
             return p.resolve().relative_to(base.resolve()).as_posix()
         except ValueError:

@@ -625,8 +625,8 @@ train_time = time.perf_counter() - t_start
 # ------------------------------------------------------------------------------- 4. checkpoint
 # no machine paths in the metadata: paths inside the repository are recorded relative to it
 recorded_config = {**config, "device": device,
-                   **{k: _cli.portable_path(config[k]) for k in ("data", "out", "config", "init_from")
-                      if config[k]}}
+                   **{k: _cli.portable_path(config[k]) for k in ("data", "config", "init_from")
+                      if config[k]}, "out": _cli.output_path(config["out"])}
 versions = ds._versions()
 try:
     from importlib import metadata as _md
