@@ -298,6 +298,25 @@ def static_paths(beam: Beam, chains: dict) -> dict:
     return res
 
 
+#: how the rod's implicit midpoint iteration fails at too coarse a step (no convergence: BadInput
+#: naming ``steps``; divergence to inf: ValueError from the linear solve)
+ROD_FAILURES = (BadInput, ArithmeticError, ValueError)
+
+
+def _rod_release(beam, angle, rod_kw):
+    """(rod, kw, failures): the release at ``rod_kw``'s steps or, where its implicit midpoint
+    iteration fails, at twice the steps (rod_response's own default for 512); BadInput naming
+    both failures where both fail."""
+    failures = []
+    for steps in (rod_kw["steps"], 2 * rod_kw["steps"]):
+        kw = dict(rod_kw, steps=steps)
+        try:
+            return rod_response(beam, angle, periods=PERIODS, check=False, **kw), kw, failures
+        except ROD_FAILURES as exc:
+            failures.append(f"at {steps} steps: {str(exc)[:160]}")
+    raise BadInput("; ".join(failures))
+
+
 def _rod_resolution(beam, angle, rod, rod_kw):
     """(resolution, first, note): the relative change of the mean period (``resolution``, as
     ``prbdm simulate`` measures it) and of the first period (``first``) when the release ``rod``
@@ -306,7 +325,7 @@ def _rod_resolution(beam, angle, rod, rod_kw):
     kw = dict(rod_kw, steps=max(16, rod_kw["steps"] // 2))
     try:
         half = rod_response(beam, angle, periods=PERIODS, check=False, **kw)
-    except BadInput as exc:
+    except ROD_FAILURES as exc:
         return None, None, f"at {kw['steps']} steps: {exc}"
     return (abs(half.period / rod.period - 1.0), abs(half.periods[0] / rod.periods[0] - 1.0),
             None)
@@ -319,13 +338,13 @@ def vibrations(beam: Beam, chains: dict, angles=RELEASE_ANGLES, rod_kw=None) -> 
     for a in angles:
         t0 = time.perf_counter()
         try:
-            rod = rod_response(beam, a * DEG, periods=PERIODS, check=False, **rod_kw)
+            rod, used, failures = _rod_release(beam, a * DEG, rod_kw)
         except BadInput as exc:                  # recorded; the other releases go on
             out[f"{a:g}"] = {"rod": {"error": str(exc), "time_s": time.perf_counter() - t0},
                              "methods": {}}
             _log(f"  {a:g} deg rod: {exc}")
             continue
-        resolution, res_first, note = _rod_resolution(beam, a * DEG, rod, rod_kw)
+        resolution, res_first, note = _rod_resolution(beam, a * DEG, rod, used)
         T_rod, T1_rod = float(rod.period), float(rod.periods[0])
         sel = rod.t <= PERIODS * float(rod.period) * (1 + 1e-12)
         t = rod.t[sel]
@@ -335,7 +354,7 @@ def vibrations(beam: Beam, chains: dict, angles=RELEASE_ANGLES, rod_kw=None) -> 
                          "periods_s": rod.periods.tolist(), "tip0": rod_tip[0].tolist(),
                          "load_N": float(np.hypot(*rod.equilibrium.force)),
                          "resolution": resolution, "resolution_first_period": res_first,
-                         "resolution_note": note,
+                         "resolution_note": note, "failures": failures,
                          "energy_drift": rod.energy_drift, "mesh": rod.mesh,
                          "time_s": time.perf_counter() - t0}, "methods": {}}
         _log(f"  {a:g} deg rod: period {T_rod:.6g} s, resolution {resolution}, "
@@ -377,10 +396,38 @@ def run_static(beam: Beam, methods=METHODS, starts=None, sur=None):
 
 def run_dynamics(beam: Beam, rec: dict, chains: dict, methods, rod_kw=None,
                  release_angles=RELEASE_ANGLES) -> dict:
+    """The free-vibration test at ``release_angles``, added to ``rec``'s."""
     t0 = time.perf_counter()
-    rec["vibration"] = vibrations(beam, {m: chains[m] for m in methods}, release_angles, rod_kw)
-    rec["dynamics_time_s"] = time.perf_counter() - t0
+    rec.setdefault("vibration", {}).update(
+        vibrations(beam, {m: chains[m] for m in methods}, release_angles, rod_kw))
+    rec["dynamics_time_s"] = rec.get("dynamics_time_s", 0.0) + time.perf_counter() - t0
     return rec
+
+
+def _missing_releases(rec: dict) -> list:
+    """The release angles of RELEASE_ANGLES that ``rec`` has no chain results for."""
+    return [a for a in RELEASE_ANGLES
+            if not rec.get("vibration", {}).get(f"{a:g}", {}).get("methods")]
+
+
+def _previous_records(path) -> dict:
+    """``--resume``: the records of ``path`` by beam (empty where it does not exist)."""
+    try:
+        with open(path) as f:
+            doc = json.load(f)
+    except FileNotFoundError:
+        return {}
+    return {json.dumps(r["beam"], sort_keys=True): r for r in doc["beams"]}
+
+
+def _rebuild(beam, rec, methods, starts, sur) -> dict:
+    """The chains of a resumed record, made again (seeded: the same gamma, checked)."""
+    chains = build_methods(beam, methods, starts=starts, sur=sur)
+    for m, ch in chains.items():
+        if ch.info["gamma"] != rec["methods"][m]["gamma"]:
+            raise RuntimeError(f"--resume: {beam.name} {m}: the chain made again differs from "
+                               "the recorded one (another fit or network): run without --resume")
+    return chains
 
 
 # ----------------------------------------------------------------------------- summary
@@ -526,6 +573,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rod-steps", type=int, default=None,
                     help=f"rod steps per linear period (default {ROD_DYNAMICS['steps']})")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the beams already in --json (statics, and the releases whose "
+                         "chains were run) and run only what is missing")
     ap.add_argument("--plot", default=None)
     args = ap.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
@@ -550,7 +600,14 @@ def main(argv=None) -> int:
         blist = blist[:args.beams]
     t0 = time.perf_counter()
     records, chain_sets = [], []
+    previous = _previous_records(args.json) if args.resume and args.json else {}
     for b in blist:                                   # statics first, every beam
+        rec = previous.get(json.dumps(b.to_dict(), sort_keys=True))
+        if rec is not None and set(rec["methods"]) == set(methods):
+            records.append(rec)
+            chain_sets.append(None)
+            _log(f"{b.name}: statics from {args.json}")
+            continue
         rec, chains = run_static(b, methods, starts=args.starts, sur=sur)
         records.append(rec)
         chain_sets.append(chains)
@@ -564,7 +621,12 @@ def main(argv=None) -> int:
     if not args.no_dynamics:
         last = f"{RELEASE_ANGLES[-1]:g}"
         for b, rec, chains in list(zip(blist, records, chain_sets))[:args.dynamics_beams]:
-            run_dynamics(b, rec, chains, dyn_methods, rod_kw, RELEASE_ANGLES)
+            todo = _missing_releases(rec)
+            if not todo:
+                continue
+            if chains is None:
+                chains = _rebuild(b, rec, methods, args.starts, sur)
+            run_dynamics(b, rec, chains, dyn_methods, rod_kw, todo)
             got = rec["vibration"][last]["methods"]
             print(f"{b.name}: dynamics {rec['dynamics_time_s']:.1f} s; period error at "
                   f"{last} deg: " + ", ".join(f"{m} {got[m]['period_error']:.1e}" for m in got),
