@@ -641,6 +641,21 @@ class ChainDynamics:
         M = self.mass_matrix(theta)
         return float(0.5 * theta_dot @ M @ theta_dot) + self.springs.energy(np.asarray(theta))
 
+    def integrate(self, y0, duration: float, t, rtol: float, atol, **options):
+        """The nonlinear motion from ``y0`` = (theta, theta_dot) over ``[0, duration]`` [s],
+        sampled at ``t``: scipy's DOP853 at ``rtol`` / ``atol`` (``options``: ``events``,
+        ``dense_output``). Returns the solution and its wall time [s]; RuntimeError if it fails."""
+        import time
+
+        from scipy.integrate import solve_ivp
+
+        ts = time.perf_counter()
+        sol = solve_ivp(self.rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=rtol,
+                        atol=atol, **options)
+        if not sol.success:
+            raise RuntimeError(f"solve_ivp failed: {sol.message}")
+        return sol, time.perf_counter() - ts
+
     def linear_frequencies(self, theta=None) -> np.ndarray:
         """omega [rad/s] of K v = lambda M(theta) v (default about the spring reference)."""
         from scipy.linalg import eigh

@@ -425,7 +425,6 @@ def _modal_run(chain, ref: Reference, run: RunSettings, length: float) -> dict:
     (``length``: the beam's, for the small-deflection limit of an impulse's swing): the same
     keys as :func:`prbdm.large_amplitude.compare_with_rod`, the periods measured by one
     estimator on both records (:func:`prbdm.signals.damped_frequency`)."""
-    from scipy.integrate import solve_ivp
 
     kind, amount = ref.initial
     modes, T1, duration, damping = ref.modes, ref.T1, ref.duration, run.damping
@@ -441,12 +440,7 @@ def _modal_run(chain, ref: Reference, run: RunSettings, length: float) -> dict:
     scale_theta = max(np.abs(y0[:n]).max(), np.abs(y0[n:]).max() / omega0[0])
     atol = np.concatenate([np.full(n, run.rtol * scale_theta),
                            np.full(n, run.rtol * scale_theta * omega0[-1])])
-    ts = time.perf_counter()
-    sol = solve_ivp(chain.rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=run.rtol,
-                    atol=atol, dense_output=True)
-    ode_s = time.perf_counter() - ts
-    if not sol.success:
-        raise RuntimeError(f"solve_ivp failed: {sol.message}")
+    sol, ode_s = chain.integrate(y0, duration, t, run.rtol, atol, dense_output=True)
     theta = sol.y[:n].T
     tip_prbdm = chain.tip(theta)[1]
     truth_kw = {kind: amount}

@@ -245,6 +245,20 @@ def _path(sc, direction, kind, target_load=None, target_angle=None, target_z=Non
     return lam, m0, y
 
 
+def _force_for(sc, direction, fa: float, value: float, name: str, what: str, noun: str,
+               **target):
+    """(load, root moment) of the dead tip force at ``force_angle`` ``fa`` that puts the tip
+    where ``target`` says (``target_z`` or ``target_angle``, by continuation, :func:`_path`); 0
+    for ``value`` 0; BadInput naming ``name`` where no force in that direction can."""
+    if value == 0:
+        return 0.0, 0.0
+    if math.sin(fa) * value <= 0 or abs(math.sin(fa)) < 1e-3:
+        raise BadInput(f"{name}: a force at force_angle {fa:.4g} rad cannot {what}; give {noun} "
+                       "of the sign of sin(force_angle), with |sin(force_angle)| >= 1e-3")
+    lam, m0, _ = _path(sc, direction, "force", **target)
+    return lam, m0
+
+
 def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = math.pi / 2,
                moment: float | None = None, tip_angle: float | None = None,
                tip_deflection: float | None = None, load: str = "force",
@@ -295,24 +309,13 @@ def rod_static(beam: Beam, *, force: float | None = None, force_angle: float = m
             else (0.0, 0.0, rest)
     elif tip_deflection is not None:
         dz = _number(tip_deflection, "tip_deflection", -sc.L, sc.L, " m (|D| <= L)") / sc.L
-        if dz == 0:
-            lam, m0 = 0.0, 0.0
-        else:
-            if math.sin(fa) * dz <= 0 or abs(math.sin(fa)) < 1e-3:
-                raise BadInput(f"tip_deflection: a force at force_angle {fa:.4g} rad cannot "
-                               f"move the tip to z = {dz * sc.L:.4g} m; give a deflection of "
-                               f"the sign of sin(force_angle), with |sin(force_angle)| >= 1e-3")
-            lam, m0, _ = _path(sc, direction, "force", target_z=dz)
+        lam, m0 = _force_for(sc, direction, fa, dz, "tip_deflection",
+                             f"move the tip to z = {dz * sc.L:.4g} m", "a deflection",
+                             target_z=dz)
     else:
         ta = _number(tip_angle, "tip_angle", -math.pi / 2, math.pi, " rad")
-        if ta == 0:
-            lam, m0 = 0.0, 0.0
-        else:
-            if math.sin(fa) * ta <= 0 or abs(math.sin(fa)) < 1e-3:
-                raise BadInput(f"tip_angle: a force at force_angle {fa:.4g} rad cannot bend the "
-                               f"tip to {ta:.4g} rad; give a tip angle of the sign of "
-                               f"sin(force_angle), with |sin(force_angle)| >= 1e-3")
-            lam, m0, _ = _path(sc, direction, "force", target_angle=ta)
+        lam, m0 = _force_for(sc, direction, fa, ta, "tip_angle",
+                             f"bend the tip to {ta:.4g} rad", "a tip angle", target_angle=ta)
     F = lam * direction if kind == "force" else np.zeros(2)
     M0 = 0.0 if kind == "force" else lam
     s = np.unique(np.concatenate([np.linspace(0.0, 1.0, int(samples)), sc.xs]))
