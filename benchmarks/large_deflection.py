@@ -497,7 +497,7 @@ def table(summ: dict, count: int, rods: dict | None = None) -> str:
         for q in ("period_error", "trajectory_rms"):
             for a in RELEASE_ANGLES:
                 v = s.get(f"{q}_{a:g}")
-                cells.append(f"{100 * v['median']:.2f} % ({100 * v['worst']:.1f} %)" if v
+                cells.append(f"{100 * v['median']:.2f} % ({100 * v['worst']:.2f} %)" if v
                              else "-")
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
     if rods:
@@ -538,7 +538,13 @@ def plot(records: list, methods, path) -> None:
     nvib = sum(bool(r.get("vibration")) for r in records)
     axes[2].set_title(f"free vibration from a static shape ({nvib} beams)", fontsize=9)
     axes[2].set_xlabel("release tip angle [deg]")
-    axes[2].set_ylabel("first-period error")
+    axes[2].set_ylabel("period error (mean of 5 periods)")
+    res = rod_summary(records)
+    if all(res.get(f"{a:g}", {}).get("resolution") for a in RELEASE_ANGLES):
+        axes[2].semilogy(RELEASE_ANGLES, [res[f"{a:g}"]["resolution"]["worst"]
+                                          for a in RELEASE_ANGLES], "k--", lw=0.8,
+                         label="rod resolution (worst)")
+        axes[2].legend(fontsize=7)
     for ax in axes:
         ax.grid(alpha=0.3, which="both")
     axes[0].legend(fontsize=7)
@@ -648,6 +654,9 @@ def _save(args, records, methods, rod_kw, count, elapsed, summ=None):
            "methods": list(methods), "rod_dynamics": rod_kw, "random_beams": count,
            "random_seed": args.seed, "release_angles_deg": list(RELEASE_ANGLES),
            "periods": PERIODS, "time_s": elapsed,
+           # the beams' own times, summed (with --resume, over the runs that made them)
+           "beams_time_s": sum(r.get("static_time_s", 0.0) + r.get("dynamics_time_s", 0.0)
+                               for r in records),
            "summary": summ if summ is not None else summarise(records, methods),
            "rod_summary": rod_summary(records),
            "beams": records}
