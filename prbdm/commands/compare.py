@@ -205,7 +205,9 @@ def render(o: dict, beam) -> str:
     cols = max(r, Rd)
     t = o["truth"]
     lines = [f"beam: {beam.name or '(unnamed)'}; {o['joints']}R-PRBDM mapping {r} modes; "
-             f"checkpoint {o['checkpoint']['name']}; {o['objective']} objective", ""]
+             f"checkpoint {o['checkpoint']['name']}; {o['objective']} objective; "
+             + ("at rest (the shape pose target: its stiffness held at deflected poses)"
+                if o.get("pose_target") == "shape" else "the paper's poses"), ""]
     rows = [["truth (" + t["model"] + ")", "", *(f"{f:.5g} Hz" for f in t["freq_hz"][:cols]),
              f"{t['time_s']:.3g}"]]
     for key, label in (("network", "network"), ("network_direct", "network (direct)"),
