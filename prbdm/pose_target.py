@@ -7,10 +7,10 @@
   in that shape, so its frequencies follow the panel bent into the pose (stress-free), which the
   geometrically exact rod (:mod:`prbdm.truth.rod`) gives independently of the chain.
 
-Measured on 100 random beams (``python benchmarks/pose_targets.py``, docs/method.md "Poses"):
-against the panel in each pose's shape the constant-stiffness chain is a median 2 % off on its
-worst mode, the paper's fit 22 %; the straight panel is not what a bent panel vibrates like (its
-mode 2 falls 18 % at the largest paper pose).
+Measured on 100 random beams (``python benchmarks/pose_targets.py``; the numbers are in
+docs/method.md, "Poses"): against the panel in each pose's shape the constant-stiffness chain is
+a few percent off on its worst mode, the paper's fit tens of percent; the straight panel is not
+what a bent panel vibrates like.
 """
 from __future__ import annotations
 

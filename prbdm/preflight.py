@@ -172,6 +172,7 @@ def prepare(beam, fit: dict, pose="rest", *, ignore_fingerprint: bool = False,
     fit run here on this beam), its truth, and with ``pose="rest"`` the theta = 0 pose, refitted
     when the result has none. Other poses (an index, ``'linear'``) are passed on unchanged."""
     from .export import check_fit, check_fit_links
+    from .springs import pose_target_of
 
     if not isinstance(fit, dict):
         raise BadInput("fit: must be a dict with keys gamma, k, law, poses")
@@ -196,6 +197,14 @@ def prepare(beam, fit: dict, pose="rest", *, ignore_fingerprint: bool = False,
         rest = np.flatnonzero(np.all(poses == 0.0, axis=1))
         if rest.size:
             pose = int(rest[0])
+        elif pose_target_of(fit) == "shape":
+            # fitted at rest, its one stiffness held at the poses: the theta = 0 model is the
+            # result itself (gamma and that SCF), no refit
+            k = np.atleast_1d(np.asarray(fit["k"], float))
+            fit = {**{key: v for key, v in fit.items()
+                      if key not in ("omega", "freq_hz", "freq_error", "links")},
+                   "poses": [[0.0] * n], "k": [float(k[0])]}
+            pose = 0
         else:
             fit, refit = refit_at_rest(beam, fit, truth, source, r)
             pose = 0

@@ -52,14 +52,19 @@ def test_fit_and_predict_json_carry_it_and_export_accepts_them(run, tmp_path):
     pred = json.loads(out)
     assert pred["beam_fingerprint"] == beam_fingerprint(BEAM)
     (tmp_path / "pred.json").write_text(out)
-    # a prediction for the paper's poses: refitted at rest against the network's own predicted
-    # truth frequencies, and checked against them
+    # a prediction of a network trained at rest (the shape target) is exported as it is, at
+    # rest (gamma and its one SCF; a paper-pose prediction is refitted there), and checked
+    # against the network's own predicted truth frequencies
     rc, out, err = run("export", beam, "--from", tmp_path / "pred.json", "-o",
                        tmp_path / "m.xml", "--json")
     assert rc == 0, err
     rep = json.loads(out)
     assert rep["beam_fingerprint"]["match"] is True
-    assert rep["refit"]["truth"] == "omega_truth_predicted"
+    if pred["pose_target"] == "shape":
+        assert rep["refit"] is None and rep["pose"]["theta"] == [0.0] * 3
+        assert rep["pose"]["k"] == pred["k"][0]
+    else:
+        assert rep["refit"]["truth"] == "omega_truth_predicted"
     assert rep["check"]["truth"] == "omega_truth_predicted"
     r = rep["check"]["modes"]
     assert r == 3 and rep["check"]["freq_hz_truth"] == pytest.approx(

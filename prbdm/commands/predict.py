@@ -140,12 +140,20 @@ def render(r: dict) -> str:
                               "J [kg m^2]", "s [N m/rad]"]))
     lines += ["", "per pose: SCF k, joint stiffness k s_j [N m/rad], PRBDM frequencies [Hz]:"]
     rows = []
+    if r.get("rest"):
+        # trained at rest (the shape pose target): its answer there, then held at the poses
+        rows.append(["rest", "0", f"{r['rest']['k']:.5g}", " ".join(f"{v:.4g}" for v in
+                                                                 L["stiffness"][0]),
+                     *(f"{v:.5g}" for v in r["rest"]["freq_hz"])])
     for i, (pose, k, f, ks) in enumerate(zip(r["poses"], r["k"], r["freq_hz"],
                                              L["stiffness"])):
         rows.append([str(i), f"{pose[0]:.4g}", f"{k:.5g}", " ".join(f"{v:.4g}" for v in ks),
                      *(f"{v:.5g}" for v in f)])
     lines.append(table(rows, ["pose", "theta [rad]", "k", "stiffness [N m/rad]",
                               *(f"f{j + 1}" for j in range(n))]))
+    if r.get("rest"):
+        lines.append("(fitted at rest, its stiffness held at the poses, where the chain follows "
+                     "the panel bent into each pose's shape; predict checks it at rest only)")
     ft = r["freq_hz_truth_predicted"]
     lines.append(f"\ntruth frequencies predicted by the network [Hz]: "
                  f"{', '.join(f'{v:.5g}' for v in ft)}")

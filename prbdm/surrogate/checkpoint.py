@@ -345,11 +345,32 @@ def default_checkpoint(joints: int, truth: str = "beam", objective: str = "eigen
     then in the shipped ``checkpoints/``. BadInput listing what exists when there is none."""
     if objective not in OBJECTIVES:
         raise BadInput(f"--objective: must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    # a network trained at rest (the shape pose target, the default's) serves either objective:
+    # at rest both have one optimum; it answers before an objective's own network of the paper's
+    # poses, so that the objective does not change the pose target
+    plain = checkpoint_name(joints, truth, "eigenvalue")
     name = checkpoint_name(joints, truth, objective)
     for d in _checkpoint_dirs():
+        if (d / plain).is_file() and _trained_at_rest(d / plain):
+            return d / plain
         if (d / name).is_file():
             return d / name
     have = ", ".join(p.stem for p in available_checkpoints()) or "none"
     raise BadInput(f"--joints {joints} --truth {truth} --objective {objective}: no trained "
                    f"surrogate checkpoint {name!r} (available: {have}); train one with "
                    "training/train_surrogate.py or pass --checkpoint PATH")
+
+
+def _trained_at_rest(path: Path) -> bool:
+    """Whether the checkpoint ``path`` was trained at rest (its pose target ``shape``), read from
+    the metadata copy beside it (``.json``); False where there is none."""
+    from ..poses import is_rest
+
+    meta_path = path.with_suffix(".json")
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError):
+        return False
+    target = meta.get("pose_target")
+    return target == "shape" if target else is_rest(meta.get("poses", [[1.0]]))
+

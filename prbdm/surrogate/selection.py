@@ -117,8 +117,9 @@ def load_surrogate(request: Request, auto_truth: str | None = None):
         raise BadInput(f"--truth {request.truth}: checkpoint {sur.name} was trained on the "
                        f"{sur.truth!r} truth")
     # a network trained at rest (the shape pose target) serves either objective: at rest both
-    # have one optimum, every mapped mode exact for n <= 4 (n + 1 parameters); such networks are
-    # trained on the frequency objective, which keeps every mode of their approximate answer close
+    # have one optimum, every mapped mode exact for n <= 4 (n + 1 parameters; for n = 5 they
+    # weigh the fifth mode differently); such networks are trained on the frequency objective,
+    # which keeps every mode of their approximate answer close, and answer either request
     if request.objective is not None and sur.objective != request.objective \
             and sur.pose_target != "shape":
         raise BadInput(f"--objective {request.objective}: checkpoint {sur.name} was trained for "
@@ -400,8 +401,12 @@ def network_answer(sur, beam, allow_extrapolation: bool = False) -> dict:
         pred.omega[0], omega_t, sur.modes, pred.poses,
         truth_source="the truth the network predicted",
         remedy=self_check_remedy(sur), objective=sur.objective)
-    k, poses, omega = pred.k, pred.poses, pred.omega[0]
+    k, poses, omega, rest = pred.k, pred.poses, pred.omega[0], None
     if sur.pose_target == "shape":
+        # its answer at rest, where it was trained and where the self-check measured it
+        rest = {"k": float(pred.k[0, 0]), "omega": pred.omega[0][0].tolist(),
+                "freq_hz": (pred.omega[0][0] / (2 * math.pi)).tolist()}
+        check["at"] = "rest"
         # trained at rest: the stiffness is held at the paper's poses, where the chain follows
         # the panel bent into each pose's shape (prbdm.pose_target); predict runs no solver, so
         # those poses are not checked here
@@ -422,6 +427,7 @@ def network_answer(sur, beam, allow_extrapolation: bool = False) -> dict:
         "source": f"network {sur.name}",     # what `prbdm export --from` records as the source
         "gamma": pred.gamma[0].tolist(), "k": k[0].tolist(),
         "poses": poses.tolist(), "pose_target": sur.pose_target,
+        **({"rest": rest} if rest else {}),
         "omega": omega.tolist(), "freq_hz": (omega / (2 * math.pi)).tolist(),
         "omega_truth_predicted": omega_t.tolist(),
         "freq_hz_truth_predicted": (omega_t / (2 * math.pi)).tolist(),
