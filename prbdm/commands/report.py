@@ -61,7 +61,8 @@ def add_arguments(parser):
                         help="a small, fast run (few beams, short scaling sweeps): for tests")
     parser.add_argument("--objective", choices=OBJECTIVES, default="eigenvalue",
                         help="what the fits minimise and which network is measured "
-                             "(beam-n4 or beam-n4-frequency; default: the paper's eigenvalue loss)")
+                             "(the default network for it: beam-n4, trained at rest, answers either; "
+                             "default: the paper's eigenvalue loss)")
     parser.add_argument("--no-stability", action="store_true",
                         help="do not append the stability suite (prbdm.report.stability, "
                              "docs/validation.md)")
