@@ -67,7 +67,8 @@ def add_objective_argument(parser):
                         help="what the network was trained to minimise: the paper's eigenvalue "
                              "loss, or the worst frequency error per pose (every mode right); "
                              "default: the checkpoint's, or 'eigenvalue' to pick the default "
-                             "checkpoint (TRUTH-nJOINTS[-frequency])")
+                             "checkpoint (TRUTH-nJOINTS, which answers either objective when it "
+                             "was trained at rest; else TRUTH-nJOINTS-frequency for 'frequency')")
 
 
 def add_extrapolation_argument(parser):
