@@ -80,11 +80,10 @@ def _width(band) -> str:
 
 
 def _pose_target(meta: dict) -> str:
-    """The checkpoint's pose target (prbdm.pose_target), as prbdm.surrogate reads it: recorded,
-    or 'shape' for a network trained at the one straight pose, else 'straight'."""
-    from prbdm.poses import is_rest
+    """The checkpoint's pose target, as prbdm.surrogate reads it."""
+    from prbdm.surrogate.checkpoint import pose_target
 
-    return meta.get("pose_target") or ("shape" if is_rest(meta["poses"]) else "straight")
+    return pose_target(meta)
 
 
 def checkpoints_page(folder: Path | None = None) -> str:

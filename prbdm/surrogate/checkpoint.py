@@ -361,16 +361,20 @@ def default_checkpoint(joints: int, truth: str = "beam", objective: str = "eigen
                    "training/train_surrogate.py or pass --checkpoint PATH")
 
 
+def pose_target(metadata: dict) -> str:
+    """A checkpoint's pose target (:mod:`prbdm.pose_target`) from its metadata: the one recorded,
+    else ``"shape"`` for a network trained at the one straight pose, ``"straight"`` otherwise."""
+    from ..poses import is_rest
+
+    return str(metadata.get("pose_target")
+               or ("shape" if is_rest(metadata.get("poses", [[1.0]])) else "straight"))
+
+
 def _trained_at_rest(path: Path) -> bool:
     """Whether the checkpoint ``path`` was trained at rest (its pose target ``shape``), read from
     the metadata copy beside it (``.json``); False where there is none."""
-    from ..poses import is_rest
-
-    meta_path = path.with_suffix(".json")
     try:
-        meta = json.loads(meta_path.read_text())
+        meta = json.loads(path.with_suffix(".json").read_text())
     except (OSError, ValueError):
         return False
-    target = meta.get("pose_target")
-    return target == "shape" if target else is_rest(meta.get("poses", [[1.0]]))
-
+    return pose_target(meta) == "shape"

@@ -35,11 +35,11 @@ from ..constants import (
     SELF_CHECK_IMPLAUSIBLE,
 )
 from ..errors import BadInput
-from ..poses import is_rest
 from .checkpoint import (
     check_checkpoint,
     default_checkpoint,
     member_prefixes,
+    pose_target,
     read_checkpoint,
     width_band_index,
 )
@@ -166,8 +166,7 @@ class Surrogate:
             #: what the network's chain matches away from rest (prbdm.pose_target): "shape" for a
             #: network trained at rest (its stiffness is held at every pose), "straight" for one
             #: trained on the paper's poses (one SCF per pose)
-            self.pose_target = str(metadata.get("pose_target")
-                                   or ("shape" if is_rest(self.poses) else "straight"))
+            self.pose_target = pose_target(metadata)
             self.modes = int(metadata["modes"])
             self.feature_spec = FeatureSpec(**metadata["features"]["spec"])
             self.norm = {k: np.asarray(v, dtype=np.float64)
