@@ -119,10 +119,18 @@ def _element_matrices(basis, nu: float, tau: float, kappa: float):
     # Shear, alpha |grad W - beta|^2: W-W alpha lap, beta-beta alpha mass, W-beta -alpha.
     # Rows: test field; columns: trial field; fields in the order W, beta_x, beta_y.
     yx = c * XY + nu * XY.transpose(swap)
-    blocks = [[a * (XX + YY), -a * GX.transpose(swap), -a * GY.transpose(swap)],
-              [-a * GX, XX + c * YY + a * MM, yx.transpose(swap)],
-              [-a * GY, yx, YY + c * XX + a * MM]]
-    Ke = np.concatenate([np.concatenate(row, axis=2) for row in blocks], axis=1)  # (E, 3B, 3B)
+    B = phi.shape[0]
+    Ke = np.empty((XX.shape[0], 3 * B, 3 * B))                                    # (E, 3B, 3B)
+    W, X, Y = slice(0, B), slice(B, 2 * B), slice(2 * B, 3 * B)
+    np.multiply(a, XX + YY, out=Ke[:, W, W])
+    np.multiply(-a, GX.transpose(swap), out=Ke[:, W, X])
+    np.multiply(-a, GY.transpose(swap), out=Ke[:, W, Y])
+    np.multiply(-a, GX, out=Ke[:, X, W])
+    Ke[:, X, X] = XX + c * YY + a * MM
+    Ke[:, X, Y] = yx.transpose(swap)
+    np.multiply(-a, GY, out=Ke[:, Y, W])
+    Ke[:, Y, X] = yx
+    Ke[:, Y, Y] = YY + c * XX + a * MM
     el = basis.element_dofs.T                                                        # (E, B)
     load = np.bincount(el.ravel(), weights=np.einsum("ieq,eq->ei", phi, dx).ravel(),
                        minlength=N)
