@@ -24,6 +24,7 @@ second (importing torch alone takes about 2 s on a busy machine).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -95,17 +96,23 @@ class BeamBatch:
     @classmethod
     def from_table(cls, table, material: Material | dict | None = None) -> "BeamBatch":
         """From a data set table (pyarrow Table or pandas DataFrame with columns ``x``,
-        ``half_width``, ``thickness``); ``material`` is the data set's (``spec['beam']
-        ['material']``)."""
+        ``half_width``, ``thickness`` and, where the set draws one per beam, ``nu``);
+        ``material`` is the data set's (``spec['beam']['material']``): its E and rho, and its
+        Poisson's ratio where the table has no ``nu`` column."""
         if isinstance(material, dict):
             material = Material(**material)
         if hasattr(table, "column"):                       # pyarrow
             xs = table.column("x").to_pylist()
             ws = table.column("half_width").to_pylist()
             t = table.column("thickness").to_numpy()
+            nu = table.column("nu").to_numpy() if "nu" in table.column_names else None
         else:                                              # pandas
             xs, ws, t = list(table["x"]), list(table["half_width"]), table["thickness"].to_numpy()
-        return cls.from_arrays(xs, ws, t, material)
+            nu = table["nu"].to_numpy() if "nu" in table.columns else None
+        batch = cls.from_arrays(xs, ws, t, material)
+        if nu is None:
+            return batch
+        return dataclasses.replace(batch, nu=np.asarray(nu, dtype=np.float64).reshape(len(xs)))
 
     @property
     def lambda0(self) -> np.ndarray:

@@ -55,6 +55,16 @@ def test_a_smooth_data_set_records_each_panels_poisson_ratio(run, tmp_path):
         assert rec["nu"] == smooth_beam(0, int(rec["index"])).material.nu
         if rec["status"] == "ok":
             assert len(rec["symmetric_lambda"]) >= 12
+    # read back as training and evaluation read a set: each beam with its own nu
+    from prbdm import dataset as ds
+    from prbdm.chain import BeamBatch
+
+    read = ds.read_table(out, columns=["x", "half_width", "thickness"], status="ok")
+    batch = BeamBatch.from_table(read, spec["beam"]["material"])
+    np.testing.assert_array_equal(
+        batch.nu, [smooth_beam(0, int(i)).material.nu for i in read.column("index").to_numpy()])
+    batch = BeamBatch.from_table(read.to_pandas(), spec["beam"]["material"])
+    assert len(set(batch.nu)) == len(batch.nu) > 1
     rc, text, err = run("dataset", "generate", "--out", tmp_path / "x", "--count", 2,
                         "--joints", 2, "--family", "smooth", "--stations", 4)
     assert rc == 2 and "--stations" in err

@@ -156,6 +156,26 @@ def test_two_data_sets_must_agree_and_train_together(tmp_path, tiny_data):
     assert meta["sets"][0]["sha256"] == one != meta["sha256"]
 
 
+def test_a_paper_set_and_a_smooth_set_train_together(tmp_path):
+    """A plate network's features hold Poisson's ratio: the smooth family draws one per beam
+    (a ``nu`` column), a set of the paper's generator has its material's; trained together,
+    each record keeps its own (the paper set's records had none: NaN features and a failed
+    eigen-solve at the first step)."""
+    paper, smooth = tmp_path / "paper", tmp_path / "smooth"
+    D.generate(paper, 10, D.make_spec(joints=2, truth="plate", starts=0, seed=6,
+                                      min_half_width=0.01), workers=0, progress="none")
+    D.generate(smooth, 10, D.make_spec(joints=2, truth="plate", starts=0, seed=6,
+                                       family="smooth"), workers=0, progress="none")
+    out = tmp_path / "both.safetensors"
+    run = script("train_surrogate.py", "--data", f"{paper},{smooth}", "--out", out,
+                 "--device", "cpu", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    sur = sg.load_checkpoint(out)
+    nu = sur.names.index("nu")
+    mean, std = sur.norm["feature_mean"][nu], sur.norm["feature_std"][nu]
+    assert 0.2 < mean < 0.45 and 0 < std < 0.15
+
+
 def test_joints_override_and_freq_loss(tmp_path, tiny_data):
     """--joints trains another n from a truth-only set that holds n + 1 truth modes (its records
     do not depend on n), refused with one line otherwise; --freq_loss l1 trains and is recorded;

@@ -36,6 +36,10 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
     except (BadInput, OSError, KeyError, ValueError) as exc:
         raise SetError(f"cannot read the data set {str(path)!r} "
                        f"({str(exc).splitlines()[0]})") from None
+    if "thickness" in table.columns and "nu" not in table.columns:
+        # a set of one material: its Poisson's ratio on every record, so that sets that draw one
+        # per beam (the smooth family) and sets that do not can be trained together
+        table["nu"] = float(spec["beam"]["material"]["nu"])
     read = len(table)
     top = int(table["index"].max()) if (max_index < 0 and read) else max_index
     table = table[table["index"] <= top].reset_index(drop=True)

@@ -335,8 +335,11 @@ y_corr = log_omega_hat - feats[:, base]
 sha = (sets[0]["sha256"] if len(sets) == 1 else
        hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
 for s_ in sets[1:]:
+    gen = s_["spec"]["beam"]
     log(f"  with {s_['path']}: {s_['size']} records (index <= {s_['max_index']}), "
-        f"generator {json.dumps(s_['spec']['beam']['max_half_width'])} m, seed {s_['spec']['seed']}")
+        f"{gen.get('family', 'paper')} panels"
+        + (f", max half-width {json.dumps(gen['max_half_width'])} m" if "max_half_width" in gen
+           else "") + f", seed {s_['spec']['seed']}")
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index} and accepted by "
     f"today's truth ({sum(s_['refused_by_truth'] for s_ in sets)} refused); n = {n}, "
     f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; "

@@ -100,7 +100,11 @@ def existing_indices(out: Path) -> np.ndarray:
 
 
 def read_table(out, columns=None, status: str | None = None):
-    """The whole data set as one pyarrow Table sorted by index (duplicates, if any, dropped)."""
+    """The whole data set as one pyarrow Table sorted by index (duplicates, if any, dropped).
+
+    A set that draws Poisson's ratio per beam (the smooth family: a ``nu`` column) gives ``nu``
+    whenever the beams' ``thickness`` is read: without it a beam would be read as another one
+    (:meth:`prbdm.chain.BeamBatch.from_table` takes it from there)."""
     import pyarrow as pa
     import pyarrow.compute as pc
     import pyarrow.parquet as pq
@@ -108,6 +112,9 @@ def read_table(out, columns=None, status: str | None = None):
     manifest = read_manifest(out)
     if columns is not None and "index" not in columns:
         columns = ["index", *columns]
+    if (columns is not None and "thickness" in columns and "nu" not in columns
+            and "nu" in set_columns(manifest)):
+        columns = [*columns, "nu"]
     if status is not None and columns is not None and "status" not in columns:
         columns = [*columns, "status"]
     parts = [pq.read_table(p, columns=columns) for p in part_files(out)]
