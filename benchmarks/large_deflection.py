@@ -180,7 +180,7 @@ class Chain:
         T_guess = t_eval[-1] / periods
         crossing.terminal = False
         scale = float(np.max(np.abs(th0)))
-        for extra in (1.5, 3.0, 10.0):            # long enough for periods + 1 crossings
+        for extra in (1.5, 3.0, 10.0, 30.0):      # long enough for periods + 1 crossings
             t_end = t_eval[-1] + extra * T_guess
             sol = solve_ivp(self.rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol,
                             atol=rtol * scale * 1e-2, events=crossing, dense_output=True)

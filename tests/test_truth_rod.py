@@ -279,6 +279,34 @@ def test_a_jagged_planform_is_released():
     assert r.period_error < 1e-3
 
 
+def test_a_step_that_does_not_converge_is_taken_in_halves(monkeypatch):
+    """rod._advance: where the midpoint iteration of a step fails, two steps of half the length
+    are taken (counted), with the same result as two half steps; past MAX_HALVINGS it fails."""
+    from prbdm.truth import rod as rod_mod
+    from prbdm.truth.rod import _model, _scaled
+
+    m = _model(_scaled(UNIFORM), None, False, 4, 4)
+    q0 = 0.1 * np.linspace(0, 1, m.n)
+    v0 = np.zeros(m.n)
+    h = 0.05
+    qa, va = m.midpoint_step(*m.midpoint_step(q0, v0, h / 2), h / 2)
+    real = rod_mod.RodGalerkin.midpoint_step
+
+    def refuse_full(self, q, v, step, **kw):
+        if step > 0.75 * h:
+            raise ArithmeticError("no")
+        return real(self, q, v, step, **kw)
+    monkeypatch.setattr(rod_mod.RodGalerkin, "midpoint_step", refuse_full)
+    qb, vb = rod_mod._advance(m, q0, v0, h)
+    np.testing.assert_allclose(qb, qa, atol=1e-12)
+    np.testing.assert_allclose(vb, va, atol=1e-10)
+    assert m.halvings == 1
+    monkeypatch.setattr(rod_mod.RodGalerkin, "midpoint_step",
+                        lambda self, q, v, step, **kw: (_ for _ in ()).throw(ArithmeticError()))
+    with pytest.raises(ArithmeticError):
+        rod_mod._advance(m, q0, v0, h)
+
+
 def test_the_truth_command_gives_the_rod_at_rest_bent_and_loaded(run, beam_file):
     path = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.005})
     rc, out, err = run("truth", path, "--model", "rod", "--modes", 4, "--json")

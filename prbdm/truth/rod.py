@@ -515,7 +515,10 @@ class RodResponse:
     through z = 0), ``period_error`` its estimated relative error (midpoint: a third of the
     change between the two step sizes); ``linear_period`` [s]: 2 pi / omega_1 of the straight rod (small amplitude);
     ``energy_drift``: the largest |E(t) - E(0)| / E(0) over the samples; ``equilibrium``: the
-    released shape (:func:`rod_static`); ``nfev`` right-hand-side evaluations; ``time_s``."""
+    released shape (:func:`rod_static`); ``mesh``: the discretisation, the steps per linear
+    period and ``halved_steps``, the steps whose midpoint iteration did not converge and were
+    taken as two halves (:data:`MAX_HALVINGS`); ``nfev`` right-hand-side evaluations;
+    ``time_s``."""
 
     t: np.ndarray
     tip_x: np.ndarray
@@ -539,6 +542,25 @@ class RodResponse:
                 "nfev": self.nfev, "time_s": self.time_s}
 
 
+#: how many times a step whose midpoint iteration does not converge is halved (in two steps
+#: of half the length, recursively) before the release gives up
+MAX_HALVINGS = 4
+
+
+def _advance(model: RodGalerkin, q, v, h, depth: int = 0):
+    """One implicit-midpoint step of ``h``, or, where its iteration does not converge (a large
+    release of a strip whose width changes many times over: its stiffest modes, hardly
+    resolved, move fast), two of ``h / 2``, recursively; counted in ``model.halvings``."""
+    try:
+        return model.midpoint_step(q, v, h)
+    except ArithmeticError:
+        if depth >= MAX_HALVINGS:
+            raise
+        model.halvings = getattr(model, "halvings", 0) + 1
+        q, v = _advance(model, q, v, 0.5 * h, depth + 1)
+        return _advance(model, q, v, 0.5 * h, depth + 1)
+
+
 def _march(model: RodGalerkin, q, v, h, periods, sign, max_steps):
     """Implicit-midpoint steps of ``h`` until ``periods + 1`` downward crossings of the tip
     through z = 0 (located on the cubic Hermite interpolant of z and zdot over the step)."""
@@ -546,7 +568,7 @@ def _march(model: RodGalerkin, q, v, h, periods, sign, max_steps):
     z = model.positions(q)[1][1]
     zd = (model.tip_velocity(q, v))[1]
     for _ in range(max_steps):
-        q1, v1 = model.midpoint_step(q, v, h)
+        q1, v1 = _advance(model, q, v, h)
         z1 = model.positions(q1)[1][1]
         zd1 = model.tip_velocity(q1, v1)[1]
         if sign * z > 0 >= sign * z1:
@@ -643,5 +665,6 @@ def rod_response(beam: Beam, tip_angle: float, *, force_angle: float = math.pi /
                        equilibrium=eq, mesh={"elements": int(model.E), "degree": degree,
                                              "unknowns": n, "rotary": bool(rotary),
                                              "method": method, "steps": steps,
+                                             "halved_steps": int(getattr(model, "halvings", 0)),
                                              "rtol": rtol},
                        nfev=nfev, time_s=time.perf_counter() - t0)
