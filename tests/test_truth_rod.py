@@ -307,6 +307,19 @@ def test_a_step_that_does_not_converge_is_taken_in_halves(monkeypatch):
         rod_mod._advance(m, q0, v0, h)
 
 
+def test_a_diverging_step_fails_as_not_converged():
+    """A midpoint iteration that diverges to inf/NaN raises ArithmeticError (which rod._advance
+    halves and rod_response reports as BadInput), not the ValueError of the linear solve."""
+    from prbdm.geometry import random_beam
+    from prbdm.truth.rod import _model, _scaled
+
+    m = _model(_scaled(random_beam(0, 1)), None, False, 4, 4)
+    rng = np.random.default_rng(1)
+    q0, v0 = 2 * rng.normal(size=m.n), 50 * rng.normal(size=m.n)
+    with np.errstate(all="ignore"), pytest.raises(ArithmeticError):
+        m.midpoint_step(q0, v0, 0.1)
+
+
 def test_the_truth_command_gives_the_rod_at_rest_bent_and_loaded(run, beam_file):
     path = beam_file({"x": [0, 1], "half_width": [0.02, 0.01], "thickness": 0.005})
     rc, out, err = run("truth", path, "--model", "rod", "--modes", 4, "--json")

@@ -299,6 +299,8 @@ class RodGalerkin:
             for it in range(iters if fresh else 8):
                 res = self._midpoint_residual(q0, v0, u, h)
                 rn = np.max(np.abs(res))
+                if not np.isfinite(rn):
+                    break                       # diverged (lu_solve would raise ValueError)
                 r0 = rn if r0 is None else r0
                 du = _lu_solve(lu, res)
                 u -= du
