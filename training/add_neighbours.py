@@ -56,7 +56,8 @@ from prbdm.surrogate.checkpoint import (  # noqa: E402
 )
 from prbdm.surrogate.neighbours import NEIGHBOURS_TENSOR, build_reference  # noqa: E402
 
-GEOMETRY = ["index", "x", "half_width", "thickness", "length"]
+#: the columns the features read (nu: drawn per beam in the smooth family)
+GEOMETRY = ["index", "x", "half_width", "thickness", "nu", "length"]
 
 path = Path(cfg["checkpoint"])
 if cfg["count"] < 1:
@@ -75,7 +76,7 @@ def made_again(s: dict) -> pd.DataFrame:
     for i in range(int(s["max_index"]) + 1):
         b = beam_for(s["spec"], i)
         rows.append({"index": i, "x": b.x, "half_width": b.half_width,
-                     "thickness": b.thickness, "length": b.length})
+                     "thickness": b.thickness, "nu": b.material.nu, "length": b.length})
     table = pd.DataFrame(rows)
     if "refused_by_truth" in s:
         table = table[~refused_by_truth(table, s["spec"])].reset_index(drop=True)
