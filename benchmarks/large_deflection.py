@@ -189,6 +189,9 @@ class Chain:
             tc = sol.t_events[0]
             if tc.size >= periods + 1:
                 break
+        else:
+            raise RuntimeError(f"{self.name}: {max(tc.size - 1, 0)} of {periods} periods within "
+                               f"{t_end / T_guess:.0f} rod periods")
         Y = sol.sol(t_eval)
         tips = np.array([self.tip(Y[:n, i]) for i in range(t_eval.size)])
         E = [self.energy(Y[:n, i], Y[n:, i]) for i in range(0, t_eval.size, 10)]

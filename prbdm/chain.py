@@ -112,7 +112,12 @@ class BeamBatch:
         batch = cls.from_arrays(xs, ws, t, material)
         if nu is None:
             return batch
-        return dataclasses.replace(batch, nu=np.asarray(nu, dtype=np.float64).reshape(len(xs)))
+        nu = np.asarray(nu, dtype=np.float64).reshape(len(xs))
+        bad = ~(np.isfinite(nu) & (nu > -1.0) & (nu < 0.5))
+        if bad.any():
+            raise BadInput(f"nu: Poisson's ratio must be in (-1, 0.5), got {nu[bad][0]!r} "
+                           f"(row {int(np.flatnonzero(bad)[0])} of the table)")
+        return dataclasses.replace(batch, nu=nu)
 
     @property
     def lambda0(self) -> np.ndarray:

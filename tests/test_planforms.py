@@ -63,8 +63,12 @@ def test_a_smooth_data_set_records_each_panels_poisson_ratio(run, tmp_path):
     batch = BeamBatch.from_table(read, spec["beam"]["material"])
     np.testing.assert_array_equal(
         batch.nu, [smooth_beam(0, int(i)).material.nu for i in read.column("index").to_numpy()])
-    batch = BeamBatch.from_table(read.to_pandas(), spec["beam"]["material"])
+    frame = read.to_pandas()
+    batch = BeamBatch.from_table(frame, spec["beam"]["material"])
     assert len(set(batch.nu)) == len(batch.nu) > 1
+    frame.loc[0, "nu"] = float("nan")            # e.g. a set without nu concatenated to this one
+    with pytest.raises(BadInput, match="nu"):
+        BeamBatch.from_table(frame, spec["beam"]["material"])
     rc, text, err = run("dataset", "generate", "--out", tmp_path / "x", "--count", 2,
                         "--joints", 2, "--family", "smooth", "--stations", 4)
     assert rc == 2 and "--stations" in err

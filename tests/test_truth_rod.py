@@ -297,14 +297,18 @@ def test_a_step_that_does_not_converge_is_taken_in_halves(monkeypatch):
             raise ArithmeticError("no")
         return real(self, q, v, step, **kw)
     monkeypatch.setattr(rod_mod.RodGalerkin, "midpoint_step", refuse_full)
-    qb, vb = rod_mod._advance(m, q0, v0, h)
+    (_, qh, vh), (_, qb, vb) = rod_mod._advance(m, q0, v0, h)
     np.testing.assert_allclose(qb, qa, atol=1e-12)
     np.testing.assert_allclose(vb, va, atol=1e-10)
     assert m.halvings == 1
+    steps = rod_mod._advance(m, q0, v0, h)
+    assert [dt for dt, _, _ in steps] == [h / 2, h / 2] and m.halvings == 2
     monkeypatch.setattr(rod_mod.RodGalerkin, "midpoint_step",
                         lambda self, q, v, step, **kw: (_ for _ in ()).throw(ArithmeticError()))
+    m.halvings = 0
     with pytest.raises(ArithmeticError):
         rod_mod._advance(m, q0, v0, h)
+    assert m.halvings == rod_mod.MAX_HALVINGS       # the recursion stops there
 
 
 def test_a_diverging_step_fails_as_not_converged():

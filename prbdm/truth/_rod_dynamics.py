@@ -156,6 +156,8 @@ class RodGalerkin:
                       if self.rotary else None)
         self.theta_rest = (np.zeros_like(self.s) if theta_rest is None
                            else np.asarray(theta_rest(self.s), float))
+        self._lu = None           # the midpoint rule's Newton matrix, factorised, and its step
+        self.halvings = 0         # steps taken as two halves (prbdm.truth.rod._advance)
 
     # ------------------------------------------------------------------ kinematics
     def cumint(self, f: np.ndarray):
@@ -282,13 +284,13 @@ class RodGalerkin:
         modes need not be resolved.
 
         Solved for ``u = q1 - q0`` by a simplified Newton iteration: the residual is matrix-free
-        (O(unknowns) per evaluation), the matrix ``(2/h) M + (h/2) K`` is kept from step to step
-        and formed again at ``q0`` only when the iteration contracts slowly (its solution does
-        not depend on the matrix). Converged when the update is below ``tol (1 + |u|)``, or,
-        once the residual has fallen by 1e-9, when the update stops falling below
-        ``100 tol (1 + |u|)`` (the floor that rounding sets on a rod whose mass matrix spans
-        many decades)."""
-        fresh = getattr(self, "_lu", None) is None or self._lu[1] != h
+        (a few matrix-vector products, no n x n matrix formed), the matrix
+        ``(2/h) M + (h/2) K`` is kept from step to step and formed again at ``q0`` only when
+        the iteration contracts slowly (its solution does not depend on the matrix).
+        Converged when the update is below ``tol (1 + |u|)``, or, once the residual has fallen
+        by 1e-9, when the update stops falling below ``100 tol (1 + |u|)`` (the floor that
+        rounding sets on a rod whose mass matrix spans many decades)."""
+        fresh = self._lu is None or self._lu[1] != h
         for _attempt in range(2):
             if fresh:
                 self._iteration_matrix(q0, h)

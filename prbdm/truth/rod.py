@@ -516,9 +516,9 @@ class RodResponse:
     change between the two step sizes); ``linear_period`` [s]: 2 pi / omega_1 of the straight rod (small amplitude);
     ``energy_drift``: the largest |E(t) - E(0)| / E(0) over the samples; ``equilibrium``: the
     released shape (:func:`rod_static`); ``mesh``: the discretisation, the steps per linear
-    period and ``halved_steps``, the steps whose midpoint iteration did not converge and were
-    taken as two halves (:data:`MAX_HALVINGS`); ``nfev`` right-hand-side evaluations;
-    ``time_s``."""
+    period and ``halved_steps`` (``halved_steps_check``: of the run at half the steps), the steps
+    whose midpoint iteration did not converge and were taken as two halves
+    (:data:`MAX_HALVINGS`); ``nfev`` right-hand-side evaluations; ``time_s``."""
 
     t: np.ndarray
     tip_x: np.ndarray
@@ -547,43 +547,48 @@ class RodResponse:
 MAX_HALVINGS = 4
 
 
-def _advance(model: RodGalerkin, q, v, h, depth: int = 0):
+def _advance(model: RodGalerkin, q, v, h, depth: int = 0) -> list:
     """One implicit-midpoint step of ``h``, or, where its iteration does not converge (a large
     release of a strip whose width changes many times over: its stiffest modes, hardly
-    resolved, move fast), two of ``h / 2``, recursively; counted in ``model.halvings``."""
+    resolved, move fast), two of ``h / 2``, recursively; counted in ``model.halvings``.
+    Returns the steps taken, ``[(dt, q1, v1), ...]``."""
     try:
-        return model.midpoint_step(q, v, h)
+        return [(h, *model.midpoint_step(q, v, h))]
     except ArithmeticError:
         if depth >= MAX_HALVINGS:
             raise
-        model.halvings = getattr(model, "halvings", 0) + 1
-        q, v = _advance(model, q, v, 0.5 * h, depth + 1)
-        return _advance(model, q, v, 0.5 * h, depth + 1)
+        model.halvings += 1
+        first = _advance(model, q, v, 0.5 * h, depth + 1)
+        return first + _advance(model, first[-1][1], first[-1][2], 0.5 * h, depth + 1)
 
 
 def _march(model: RodGalerkin, q, v, h, periods, sign, max_steps):
-    """Implicit-midpoint steps of ``h`` until ``periods + 1`` downward crossings of the tip
-    through z = 0 (located on the cubic Hermite interpolant of z and zdot over the step)."""
+    """Implicit-midpoint steps of ``h`` (halved where needed, :func:`_advance`) until
+    ``periods + 1`` downward crossings of the tip through z = 0 (located on the cubic Hermite
+    interpolant of z and zdot over the step taken). Returns the times, states, crossings and
+    the number of halvings."""
+    model.halvings = 0
     t, ts, Qs, Vs, crossings = 0.0, [0.0], [q], [v], []
     z = model.positions(q)[1][1]
     zd = (model.tip_velocity(q, v))[1]
     for _ in range(max_steps):
-        q1, v1 = _advance(model, q, v, h)
-        z1 = model.positions(q1)[1][1]
-        zd1 = model.tip_velocity(q1, v1)[1]
-        if sign * z > 0 >= sign * z1:
-            def herm(x, z=z, z1=z1, zd=zd, zd1=zd1):
-                return ((2 * x ** 3 - 3 * x ** 2 + 1) * z + (x ** 3 - 2 * x ** 2 + x) * h * zd
-                        + (-2 * x ** 3 + 3 * x ** 2) * z1 + (x ** 3 - x ** 2) * h * zd1)
-            x = brentq(herm, 0.0, 1.0, xtol=1e-15) if z1 != 0 else 1.0
-            crossings.append(t + x * h)
-        t += h
-        q, v, z, zd = q1, v1, z1, zd1
-        ts.append(t)
-        Qs.append(q)
-        Vs.append(v)
-        if len(crossings) == periods + 1:
-            return np.array(ts), np.array(Qs), np.array(Vs), np.array(crossings)
+        for dt, q1, v1 in _advance(model, q, v, h):
+            z1 = model.positions(q1)[1][1]
+            zd1 = model.tip_velocity(q1, v1)[1]
+            if sign * z > 0 >= sign * z1:
+                def herm(x, z=z, z1=z1, zd=zd, zd1=zd1, dt=dt):
+                    return ((2 * x ** 3 - 3 * x ** 2 + 1) * z + (x ** 3 - 2 * x ** 2 + x) * dt * zd
+                            + (-2 * x ** 3 + 3 * x ** 2) * z1 + (x ** 3 - x ** 2) * dt * zd1)
+                x = brentq(herm, 0.0, 1.0, xtol=1e-15) if z1 != 0 else 1.0
+                crossings.append(t + x * dt)
+            t += dt
+            q, v, z, zd = q1, v1, z1, zd1
+            ts.append(t)
+            Qs.append(q)
+            Vs.append(v)
+        if len(crossings) >= periods + 1:
+            return (np.array(ts), np.array(Qs), np.array(Vs), np.array(crossings[:periods + 1]),
+                    model.halvings)
     raise BadInput(f"periods: only {max(len(crossings) - 1, 0)} periods were measured in "
                    f"{max_steps} steps")
 
@@ -627,15 +632,16 @@ def rod_response(beam: Beam, tip_angle: float, *, force_angle: float = math.pi /
     v0 = np.zeros(n)
     z0 = model.positions(q)[1][1]
     sign = 1.0 if z0 > 0 else -1.0
-    nfev = 0
+    nfev, halved, halved_check = 0, 0, 0
     if method == "midpoint":
         max_steps = 4 * steps * (periods + 1)           # periods may grow up to 4x
         try:
-            ts, Q, V, tc = _march(model, q, v0, T1 / steps, periods, sign, max_steps)
+            ts, Q, V, tc, halved = _march(model, q, v0, T1 / steps, periods, sign, max_steps)
             per = np.diff(tc)
             err = float("nan")
             if check:
-                c2 = _march(model, q, v0, 2 * T1 / steps, periods, sign, max_steps)[3]
+                _, _, _, c2, halved_check = _march(model, q, v0, 2 * T1 / steps, periods, sign,
+                                                   max_steps)
                 err = float(np.max(np.abs(np.diff(c2) - per)) / per.mean())
         except ArithmeticError as exc:
             raise BadInput(f"steps: {exc}") from None
@@ -665,6 +671,7 @@ def rod_response(beam: Beam, tip_angle: float, *, force_angle: float = math.pi /
                        equilibrium=eq, mesh={"elements": int(model.E), "degree": degree,
                                              "unknowns": n, "rotary": bool(rotary),
                                              "method": method, "steps": steps,
-                                             "halved_steps": int(getattr(model, "halvings", 0)),
+                                             "halved_steps": halved,
+                                             "halved_steps_check": halved_check,
                                              "rtol": rtol},
                        nfev=nfev, time_s=time.perf_counter() - t0)
