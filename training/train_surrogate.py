@@ -113,6 +113,9 @@ SETTINGS = {
     "profile": S(0, "> 0: add the half-width profile w / max(w) at this many points of x / L "
                     "(log_profile, and log_spread_profile with spread): what the cell means "
                     "blur, the necks that set the plate's higher modes"),
+    "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
+                     "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
+                     "that one: for plates"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -261,7 +264,7 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile))
+                                             spread=spread, profile=profile, ritz=ritz))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
@@ -317,7 +320,7 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
 batch = BeamBatch.from_table(table, material)
 feats = features(batch, fspec)
 names = feature_names(fspec)
@@ -656,7 +659,10 @@ meta = {
                                 + ("; spread adds log_omega_spread, which depends on w/L "
                                    "itself (the load spread's 45 degrees)" if spread else "")
                                 + ("; profile adds log w/max(w) at points of x/L (floored at "
-                                   f"{PROFILE_FLOOR})" if profile else "")},
+                                   f"{PROFILE_FLOOR})" if profile else "")
+                                + ("; ritz adds log_omega_ritz, the plate's bending spectrum by "
+                                   "Rayleigh-Ritz on the planform (depends on w/L, t/L and nu)"
+                                   if ritz else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,

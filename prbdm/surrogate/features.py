@@ -31,6 +31,14 @@ exact 95-joint chain on an 801-point grid, slope 1 gives 0.035 / 0.037 on modes 
 the network's base for the plate frequencies (:meth:`FeatureSpec.base_columns`). Modes 3-4 are
 left to the network; many of them are mixed bending-chordwise modes (docs/surrogate.md §5).
 
+``ritz`` (plate networks): ``log_omega_ritz[r]``, the plate's bending spectrum (../SPEC §2.1)
+estimated by Rayleigh-Ritz on the planform itself (:mod:`prbdm.truth.planform_ritz`: a Mindlin
+plate in ``eta = y / w(x)``, ~350 unknowns). It sees what the chains cannot, the chord-wise
+modes and how they mix with bending, and is the base of a ``ritz`` network's frequencies. On 150
+wide panels of the Mindlin spectrum set the scatter of ``log omega_plate - log omega_ritz`` (std,
+modes 1-5) is 0.066 / 0.037 / 0.055 / 0.065 / 0.069, against the spread chain's 0.031 / 0.039 /
+0.13 / 0.18 / 0.18.
+
 ``profile = P`` (plate networks): ``log_profile[i]``, the log of ``w / max(w)`` at the midpoints
 of P equal cells of x / L (floored at ``PROFILE_FLOOR``), and with ``spread``
 ``log_spread_profile[i]``, the same of the load-spread half-width (relative to the real width's
@@ -171,6 +179,7 @@ class FeatureSpec:
     rfe_coarse: int = 0          # > 0: Rayleigh-Ritz from a chain of this many links
     spread: bool = False         # add log_omega_spread, the base of the predicted frequencies
     profile: int = 0             # > 0: add the width profile at this many points of x / L
+    ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
@@ -179,11 +188,17 @@ class FeatureSpec:
             out["spread"] = True
         if self.profile:         # the same
             out["profile"] = self.profile
+        if self.ritz:            # the same
+            out["ritz"] = True
         return out
 
     def base_columns(self, modes: int) -> slice:
         """The feature columns the predicted log frequencies are corrections of (``modes`` of
-        them): log_omega_spread with ``spread``, else log_omega_rfe."""
+        them): log_omega_ritz with ``ritz`` (the last columns), else log_omega_spread with
+        ``spread``, else log_omega_rfe."""
+        if self.ritz:
+            start = len(feature_names(self)) - self.rfe_modes
+            return slice(start, start + modes)
         start = 2 * self.cells + (self.rfe_modes if self.spread else 0)
         return slice(start, start + modes)
 
@@ -201,6 +216,8 @@ def feature_names(spec: FeatureSpec) -> list[str]:
     names += [f"log_profile[{i}]" for i in range(spec.profile)]
     if spec.spread:
         names += [f"log_spread_profile[{i}]" for i in range(spec.profile)]
+    if spec.ritz:
+        names += [f"log_omega_ritz[{r}]" for r in range(spec.rfe_modes)]
     return names
 
 
@@ -248,5 +265,24 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec()) -> np.ndarray:
             # the spread width relative to the real one's maximum (its floor stays relative to
             # its own): where a neck cuts the load path
             cols.append(width_profile(xs, ws, spec.profile) + np.log(ws.max(-1) / wmax)[:, None])
+    if spec.ritz:
+        cols.append(ritz_log_omega(batch, spec.rfe_modes))
     return np.concatenate(cols, axis=1)
+
+
+def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
+    """log of the nondimensional frequencies ``omega / sqrt(E t^2 / (rho L^4))`` of the plate's
+    bending spectrum estimated by Rayleigh-Ritz on the planform
+    (:func:`prbdm.truth.planform_ritz.ritz_bending_spectrum`, ~20 ms a panel): (B, modes)."""
+    from ..truth.planform_ritz import ritz_bending_spectrum
+    out = np.empty((len(batch), modes))
+    for i in range(len(batch)):
+        x, w = batch.x[i], batch.w[i]                        # in units of the length
+        keep = np.concatenate([[True], np.diff(x) > 0])     # padded stations repeat the last
+        lam = ritz_bending_spectrum(x[keep], w[keep],
+                                    float(batch.thickness[i] / batch.length[i]),
+                                    float(batch.nu[i]), modes)
+        # omega_p^2 = D / (rho t L^4) = lambda0 / (12 (1 - nu^2))
+        out[i] = 0.5 * np.log(lam / (12.0 * (1.0 - float(batch.nu[i]) ** 2)))
+    return out
 
