@@ -82,3 +82,22 @@ def test_a_ritz_network_corrects_the_ritz_columns(spread):
     batch = BeamBatch.from_arrays([[0.0, 1.0]], [[0.1, 0.05]], [0.01], Material(nu=0.3))
     assert features(batch, spec).shape == (1, len(names))
     assert FeatureSpec(**spec.to_dict()) == spec
+    if spread:
+        # the lowest modes on the chain where it scatters less (mode 1 of necked panels)
+        hybrid = FeatureSpec(**{**spec.to_dict(), "chain_modes": 1})
+        assert [names[i] for i in hybrid.base_columns(3)] == [
+            "log_omega_spread[0]", "log_omega_ritz[1]", "log_omega_ritz[2]"]
+        assert FeatureSpec(**hybrid.to_dict()) == hybrid
+
+
+def test_stations_a_sliver_apart_are_a_step():
+    # a narrow panel of the data sets with two stations 5e-8 L apart (a step from 0.01 to 0.039
+    # L): read as a sliver element, mode 1 came out 30 times too stiff
+    x = [0.0, 0.0101, 0.4379, 0.5285, 0.6471, 0.7672, 0.8158, 0.8158 + 5e-8, 0.8202, 0.8461,
+         0.8872, 1.0]
+    w = [0.024, 0.0145, 0.017, 0.0398, 0.01, 0.0132, 0.01, 0.0392, 0.0352, 0.01, 0.0122, 0.01]
+    sliver, _ = planform_ritz(x, w, 0.0325, 0.28)
+    x[7] = x[6]
+    step, _ = planform_ritz(x, w, 0.0325, 0.28)
+    np.testing.assert_allclose(sliver[:4], step[:4], rtol=1e-9)
+    assert 12.0 < sliver[0] < 13.0                           # the FEM: 12.61

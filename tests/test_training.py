@@ -325,6 +325,28 @@ def test_tiny_training_run(tmp_path, tiny_data, objective):
     assert float(measure.mean()) == pytest.approx(recorded, rel=1e-3)
 
 
+def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
+    """A ritz network's features (the planform Ritz estimate, ~20 ms a panel) are stored beside
+    the checkpoint, keyed by the records, settings and code: a second run on the same data reads
+    them, another max_index computes its own; the stored file is complete."""
+    out = tmp_path / "runs" / "net.safetensors"
+    args = ["--data", tiny_data, "--out", out, "--device", "cpu", *TINY_NET, "--spread", "true",
+            "--ritz", "true", "--chain_modes", "1", "--seed", "3"]
+    first = script("train_surrogate.py", *args, cwd=tmp_path)
+    assert first.returncode == 0, first.stderr[-3000:]
+    cache = sorted((out.parent / ".feature-cache").iterdir())
+    assert len(cache) == 1 and cache[0].suffixes == [".npy"]
+    stamp = cache[0].stat().st_mtime_ns
+    again = script("train_surrogate.py", *args, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert cache[0].stat().st_mtime_ns == stamp                # read, not written again
+    other = script("train_surrogate.py", *args, "--max_index", "15", cwd=tmp_path)
+    assert other.returncode == 0, other.stderr[-3000:]
+    assert len(list((out.parent / ".feature-cache").iterdir())) == 2
+    bad = script("train_surrogate.py", *args[:-8], "--chain_modes", "1", cwd=tmp_path)
+    _one_line_exit_2(bad, "--chain_modes", "ritz and spread")
+
+
 def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     """--init_from (fine-tuning): the run starts from the checkpoint's weights and
     normalisation, so that with a vanishing learning rate it predicts what the start did, on

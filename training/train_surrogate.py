@@ -116,6 +116,8 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
+    "chain_modes": S(0, "with ritz and spread: the lowest this many modes correct the load-spread "
+                        "chain instead (it scatters less than the Ritz estimate on mode 1)"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -140,12 +142,15 @@ if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
 for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
                    ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
-                   ("cells", 1), ("rfe_segments", 2), ("threads", 1)):
+                   ("cells", 1), ("rfe_segments", 2), ("threads", 1), ("chain_modes", 0)):
     if globals()[_name] < _lo:
         _fail(f"--{_name}: must be an integer >= {_lo}, got {globals()[_name]}")
 for _name in ("lr", "max_minutes"):
     if not globals()[_name] > 0:
         _fail(f"--{_name}: must be > 0, got {globals()[_name]}")
+if chain_modes and not (ritz and spread):
+    _fail(f"--chain_modes: needs ritz and spread (the two estimates it chooses between), got "
+          f"ritz = {ritz}, spread = {spread}")
 if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
 if not 0 <= loss_power <= 8:
@@ -165,17 +170,19 @@ if not data_sets or len({Path(d).resolve() for d in data_sets}) != len(data_sets
 
 import torch  # after the configuration, as in nanoGPT (E402 is off for this file)
 
+from prbdm import chain, model, objectives
 from prbdm import dataset as ds
-from prbdm import model, objectives
 from prbdm import surrogate as sg
 from prbdm.chain import BeamBatch, uniform_gamma
 from prbdm.constants import GAMMA_MIN
 from prbdm.dataset.schema import flatten
+from prbdm.surrogate import features as features_module
 from prbdm.surrogate.checkpoint import member_prefixes, save_checkpoint
 from prbdm.surrogate.decode import candidate_losses, gauss_select_poses
 from prbdm.surrogate.features import PROFILE_FLOOR, FeatureSpec, feature_names, features
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
 from prbdm.surrogate.prediction import OOD_MARGIN
+from prbdm.truth import planform_ritz
 
 if device == "auto":
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -264,7 +271,8 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz))
+                                             spread=spread, profile=profile, ritz=ritz,
+                                             chain_modes=chain_modes))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
@@ -320,9 +328,26 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
+                       chain_modes=chain_modes)
+# one set: the hash of its records (as before); several: of their hashes, in the given order
+sha = (sets[0]["sha256"] if len(sets) == 1 else
+       hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
 batch = BeamBatch.from_table(table, material)
-feats = features(batch, fspec)
+# the Ritz estimate costs ~20 ms a panel (minutes for a set): its features are kept beside the
+# checkpoint, keyed by the records, the feature settings and the code that computes them
+_code = b"".join(Path(m_.__file__).read_bytes() for m_ in (chain, features_module, planform_ritz))
+_cache = (out_path.parent / ".feature-cache" / (hashlib.sha256(json.dumps(
+    [sha, N, max_index, fspec.to_dict()]).encode() + _code).hexdigest()[:24] + ".npy")
+          if ritz else None)
+if _cache is not None and _cache.exists():
+    feats = np.load(_cache)
+else:
+    feats = features(batch, fspec)
+    if _cache is not None:
+        _cache.parent.mkdir(parents=True, exist_ok=True)
+        np.save(_cache.with_suffix(".partial.npy"), feats)
+        os.replace(_cache.with_suffix(".partial.npy"), _cache)
 names = feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])
@@ -334,9 +359,6 @@ else:
     y_gamma = np.broadcast_to(uniform_gamma(n), (N, n + 1)).copy()
     y_logk = np.zeros((N, m))
 y_corr = log_omega_hat - feats[:, base]
-# one set: the hash of its records (as before); several: of their hashes, in the given order
-sha = (sets[0]["sha256"] if len(sets) == 1 else
-       hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
 for s_ in sets[1:]:
     gen = s_["spec"]["beam"]
     log(f"  with {s_['path']}: {s_['size']} records (index <= {s_['max_index']}), "

@@ -180,6 +180,7 @@ class FeatureSpec:
     spread: bool = False         # add log_omega_spread, the base of the predicted frequencies
     profile: int = 0             # > 0: add the width profile at this many points of x / L
     ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
+    chain_modes: int = 0         # with ritz and spread: the lowest modes correct the chain instead
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
@@ -190,14 +191,22 @@ class FeatureSpec:
             out["profile"] = self.profile
         if self.ritz:            # the same
             out["ritz"] = True
+        if self.chain_modes:     # the same
+            out["chain_modes"] = self.chain_modes
         return out
 
     def base_columns(self, modes: int) -> slice:
         """The feature columns the predicted log frequencies are corrections of (``modes`` of
         them): log_omega_ritz with ``ritz`` (the last columns), else log_omega_spread with
-        ``spread``, else log_omega_rfe."""
+        ``spread``, else log_omega_rfe. With ``ritz``, ``spread`` and ``chain_modes = c``: the
+        first ``c`` modes log_omega_spread, the rest log_omega_ritz (an index array), each mode
+        on the estimate that scatters least around it (docs/validation.md)."""
+        spread = 2 * self.cells + self.rfe_modes
         if self.ritz:
             start = len(feature_names(self)) - self.rfe_modes
+            if self.spread and self.chain_modes:
+                c = min(self.chain_modes, modes)
+                return np.r_[spread:spread + c, start + c:start + modes]
             return slice(start, start + modes)
         start = 2 * self.cells + (self.rfe_modes if self.spread else 0)
         return slice(start, start + modes)
@@ -283,6 +292,9 @@ def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
                                     float(batch.thickness[i] / batch.length[i]),
                                     float(batch.nu[i]), modes)
         # omega_p^2 = D / (rho t L^4) = lambda0 / (12 (1 - nu^2))
+        if not (np.all(np.isfinite(lam)) and np.all(lam > 0)):
+            raise ArithmeticError(f"log_omega_ritz: the planform estimate of beam {i} failed "
+                                  f"({lam.tolist()})")
         out[i] = 0.5 * np.log(lam / (12.0 * (1.0 - float(batch.nu[i]) ** 2)))
     return out
 
