@@ -116,8 +116,6 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
-    "chain_modes": S(0, "with ritz and spread: the lowest this many modes correct the load-spread "
-                        "chain instead (it scatters less than the Ritz estimate on mode 1)"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -142,15 +140,12 @@ if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
 for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
                    ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
-                   ("cells", 1), ("rfe_segments", 2), ("threads", 1), ("chain_modes", 0)):
+                   ("cells", 1), ("rfe_segments", 2), ("threads", 1)):
     if globals()[_name] < _lo:
         _fail(f"--{_name}: must be an integer >= {_lo}, got {globals()[_name]}")
 for _name in ("lr", "max_minutes"):
     if not globals()[_name] > 0:
         _fail(f"--{_name}: must be > 0, got {globals()[_name]}")
-if chain_modes and not (ritz and spread):
-    _fail(f"--chain_modes: needs ritz and spread (the two estimates it chooses between), got "
-          f"ritz = {ritz}, spread = {spread}")
 if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
 if not 0 <= loss_power <= 8:
@@ -271,8 +266,7 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz,
-                                             chain_modes=chain_modes))
+                                             spread=spread, profile=profile, ritz=ritz))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
@@ -328,8 +322,7 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
-                       chain_modes=chain_modes)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
 # one set: the hash of its records (as before); several: of their hashes, in the given order
 sha = (sets[0]["sha256"] if len(sets) == 1 else
        hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())

@@ -180,7 +180,6 @@ class FeatureSpec:
     spread: bool = False         # add log_omega_spread, the base of the predicted frequencies
     profile: int = 0             # > 0: add the width profile at this many points of x / L
     ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
-    chain_modes: int = 0         # with ritz and spread: the lowest modes correct the chain instead
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
@@ -191,22 +190,14 @@ class FeatureSpec:
             out["profile"] = self.profile
         if self.ritz:            # the same
             out["ritz"] = True
-        if self.chain_modes:     # the same
-            out["chain_modes"] = self.chain_modes
         return out
 
     def base_columns(self, modes: int) -> slice:
         """The feature columns the predicted log frequencies are corrections of (``modes`` of
         them): log_omega_ritz with ``ritz`` (the last columns), else log_omega_spread with
-        ``spread``, else log_omega_rfe. With ``ritz``, ``spread`` and ``chain_modes = c``: the
-        first ``c`` modes log_omega_spread, the rest log_omega_ritz (an index array), each mode
-        on the estimate that scatters least around it (docs/validation.md)."""
-        spread = 2 * self.cells + self.rfe_modes
+        ``spread``, else log_omega_rfe."""
         if self.ritz:
             start = len(feature_names(self)) - self.rfe_modes
-            if self.spread and self.chain_modes:
-                c = min(self.chain_modes, modes)
-                return np.r_[spread:spread + c, start + c:start + modes]
             return slice(start, start + modes)
         start = 2 * self.cells + (self.rfe_modes if self.spread else 0)
         return slice(start, start + modes)
