@@ -770,20 +770,29 @@ def test_frequency_checkpoint_keeps_every_mode_within_its_recorded_figure():
 
 def test_the_physics_chooses_a_plausible_candidate():
     """The candidate of least loss may leave mode 1 far off its own predicted truth (the loss
-    weighs the highest mode most): on 80 wide seed-1 panels mindlin-n4's (trained on the paper's
-    eigenvalue loss at the paper's poses) did on 31 % (the paper-pose beam-n4 on one beam in eight;
-    a rigid root link over a flexible neck). Among its other candidates one mostly has every mode
-    within SELF_CHECK_IMPLAUSIBLE: the rule predict answers with takes it ('plausible', 2.5 %
-    left); the rule its recorded test was measured with ('loss') does not."""
+    weighs the highest mode most): on 80 wide seed-1 panels plate-n4's (trained on the paper's
+    eigenvalue loss at the paper's poses) did on 42 % (a rigid root link over a flexible neck).
+    Among its other candidates one mostly has every mode within SELF_CHECK_IMPLAUSIBLE: the rule
+    predict answers with takes it ('plausible', 5 % left); the rule its recorded test was
+    measured with ('loss') does not. mindlin-n4, trained at rest on the frequency objective,
+    leaves none implausible under either rule."""
     import warnings
 
     from prbdm.geometry import random_beam
 
-    path = PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
+    path = PACKAGE_CHECKPOINTS / "plate-n4.safetensors"
     if not path.is_file():
-        pytest.skip("mindlin-n4 is not shipped")
-    sur = sg.load_checkpoint(path)
+        pytest.skip("plate-n4 is not shipped")
     beams = [random_beam(1, i, min_half_width=0.01) for i in range(80)]
+    rest = PACKAGE_CHECKPOINTS / "mindlin-n4.safetensors"
+    if rest.is_file():
+        sur = sg.load_checkpoint(rest)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for rule in ("loss", "plausible"):
+                sur.candidate_rule = rule
+                assert sur.predict(beams).implausible.mean() <= 0.0125       # measured 0
+    sur = sg.load_checkpoint(path)
     rates = {}
     for rule in ("loss", "plausible"):
         sur.candidate_rule = rule
@@ -793,5 +802,5 @@ def test_the_physics_chooses_a_plausible_candidate():
         rates[rule] = pred.implausible.mean()
         if rule == "loss":
             loss_rule = pred
-    assert rates["loss"] > 0.2 and rates["plausible"] <= 0.05
+    assert rates["loss"] > 0.2 and rates["plausible"] <= 0.075
     assert loss_rule.implausible[1] and not pred.implausible[1]

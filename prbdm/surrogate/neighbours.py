@@ -60,6 +60,13 @@ def nearest_distance(query: np.ndarray, reference: np.ndarray,
     return out
 
 
+def reference_rows(train: int, count: int = REFERENCE_COUNT, seed: int = 0) -> np.ndarray:
+    """Which of ``train`` training rows :func:`build_reference` keeps (ascending): ``count``
+    drawn at random with ``seed``, all when fewer."""
+    rng = np.random.default_rng(seed)
+    return np.sort(rng.choice(train, size=min(count, train), replace=False))
+
+
 def build_reference(train: np.ndarray, held_out: np.ndarray, count: int = REFERENCE_COUNT,
                     seed: int = 0) -> tuple[np.ndarray, dict]:
     """(reference, record) from the normalised features of the training panels ``train``
@@ -75,8 +82,7 @@ def build_reference(train: np.ndarray, held_out: np.ndarray, count: int = REFERE
     if len(held_out) < 100:
         raise BadInput(f"neighbours: {len(held_out)} held-out panels are too few to place a "
                        "limit (need 100)")
-    rng = np.random.default_rng(seed)
-    rows = np.sort(rng.choice(len(train), size=min(count, len(train)), replace=False))
+    rows = reference_rows(len(train), count, seed)
     reference = np.ascontiguousarray(train[rows], dtype=np.float32)
     dist = nearest_distance(held_out, reference)
     q = {name: float(np.percentile(dist, p)) for name, p in
