@@ -1,5 +1,10 @@
 """The plate estimate by Rayleigh-Ritz on the planform (prbdm.truth.planform_ritz), checked
 against the mesh-free Kirchhoff reference and the Mindlin FEM."""
+import json
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -95,3 +100,29 @@ def test_stations_a_sliver_apart_are_a_step():
     step, _ = planform_ritz(x, w, 0.0325, 0.28)
     np.testing.assert_allclose(sliver[:4], step[:4], rtol=1e-9)
     assert 12.0 < sliver[0] < 13.0                           # the FEM: 12.61
+
+
+def test_the_same_on_another_cpus_kernels():
+    """A narrow jagged panel of the data sets (random_beam(2, 3775, max_half_width=(0.025,
+    0.25))-like, rounded): the estimate must not depend on the BLAS kernels. Solved in M's
+    Cholesky factor its lowest modes came out 0.4 % apart under OpenBLAS's generic x86-64
+    kernels (OPENBLAS_CORETYPE=Prescott); in K's they agree to 1e-7."""
+    code = ("import json, numpy as np\n"
+            "from prbdm.truth.planform_ritz import planform_ritz\n"
+            "x = [0.0, 0.2719, 0.5582, 0.6079, 0.6103, 0.6905, 0.8278, 0.8358, 0.8369, 0.9328, "
+            "0.9998, 1.0]\n"
+            "w = [0.0942, 0.0746, 0.0942, 0.0203, 0.0499, 0.01, 0.0585, 0.0169, 0.01, 0.029, "
+            "0.0925, 0.01]\n"
+            "lam, frac = planform_ritz(x, w, 0.01404, 0.28)\n"
+            "print(json.dumps([lam[:20].tolist(), frac[:20].tolist()]))\n")
+    runs = []
+    for coretype in (None, "Prescott"):
+        env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+        if coretype:
+            env["OPENBLAS_CORETYPE"] = coretype
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, timeout=120)
+        assert done.returncode == 0, done.stderr[-2000:]
+        runs.append(np.array(json.loads(done.stdout)))
+    np.testing.assert_allclose(runs[0][0], runs[1][0], rtol=1e-6)
+    np.testing.assert_allclose(runs[0][1], runs[1][1], atol=1e-7)

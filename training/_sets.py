@@ -20,11 +20,28 @@ class SetError(ValueError):
     """A data set that cannot be read or holds no records to use: the message names it."""
 
 
-def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
+def index_ranges(index) -> list:
+    """The sorted distinct ``index`` values as inclusive runs ``[[first, last], ...]``: the
+    records a run read, compactly (a data set's failures and a labelling front leave gaps)."""
+    import numpy as np
+
+    idx = np.unique(np.asarray(index, dtype=np.int64))
+    if not len(idx):
+        return []
+    cut = np.flatnonzero(np.diff(idx) != 1)
+    return [[int(a), int(b)] for a, b in zip(idx[np.r_[0, cut + 1]], idx[np.r_[cut, len(idx) - 1]])]
+
+
+def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True, ranges=None):
     """(table, record) of the data set at ``path``: its records as a pandas DataFrame, and what a
     checkpoint records of it (path, spec, size, records read, max_index, refused, manifest count,
     sha256, the commit that made it). ``refuse`` False keeps the records today's truth refuses
-    (a checkpoint trained before that filter, which records no ``refused_by_truth``)."""
+    (a checkpoint trained before that filter, which records no ``refused_by_truth``). A set
+    still being labelled is read up to its labelling front at most (``labelling_front`` in the
+    record), so that ``max_index`` names the records read. ``ranges`` (a record's
+    ``index_ranges``): exactly those records, wherever the labelling front has gone since."""
+    import numpy as np
+
     from prbdm import dataset as ds
     from prbdm.errors import BadInput
     from prbdm.surrogate.checkpoint import dataset_hash
@@ -42,7 +59,19 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
         table["nu"] = float(spec["beam"]["material"]["nu"])
     read = len(table)
     top = int(table["index"].max()) if (max_index < 0 and read) else max_index
+    # a set still being labelled (two workers write their parts out of order) is read only up to
+    # its labelling front, the last index below which every record exists: beyond it the records
+    # read would depend on the moment, and no max_index could name them again
+    every = np.unique(ds.read_table(path, columns=["index"]).column("index").to_numpy())
+    gaps = np.flatnonzero(every != np.arange(len(every)))
+    front = int(gaps[0] if len(gaps) else len(every)) - 1
+    capped = ranges is None and top > front and len(every) < (manifest.get("count") or 0)
+    if capped:
+        top = front
     table = table[table["index"] <= top].reset_index(drop=True)
+    if ranges is not None:
+        wanted = np.concatenate([np.arange(a, b + 1) for a, b in ranges] or [np.zeros(0, int)])
+        table = table[np.isin(table["index"].to_numpy(), wanted)].reset_index(drop=True)
     refused = ds.refused_by_truth(table, spec) if refuse else None
     if refuse:
         table = table[~refused].reset_index(drop=True)
@@ -50,8 +79,11 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True):
         raise SetError(f"no ok records with index <= {top} in {str(path)!r}")
     record = {"path": _cli.portable_path(path), "spec": spec, "size": len(table),
               "records_ok_read": read, "max_index": top,
+              **({"labelling_front": "read up to the index below which every record exists; the "
+                                     "set was still being labelled"} if capped else {}),
               **({"refused_by_truth": int(refused.sum())} if refuse else {}),
               "manifest_count": manifest.get("count"), "sha256": dataset_hash(table),
+              "index_ranges": index_ranges(table["index"]),
               "dataset_git_commit": manifest.get("git_commit")}
     return table, record
 

@@ -97,7 +97,8 @@ for s in training_sets(meta):
     where = _cli.find_path(s["path"])
     if where.exists():
         try:
-            t, record = _sets.read_set(where, s["max_index"], refuse="refused_by_truth" in s)
+            t, record = _sets.read_set(where, s["max_index"], refuse="refused_by_truth" in s,
+                                           ranges=s.get("index_ranges"))
         except _sets.SetError as exc:
             _fail(f"--checkpoint: its data set {s['path']!r}: {exc}")
         if "sha256" in s and record["sha256"] != s["sha256"]:

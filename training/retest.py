@@ -77,7 +77,7 @@ for s in training_sets(meta):
     # a set recorded without ``refused_by_truth`` was read before that filter existed
     try:
         t, record = _sets.read_set(_cli.find_path(s["path"]), s["max_index"],
-                                   refuse="refused_by_truth" in s)
+                                   refuse="refused_by_truth" in s, ranges=s.get("index_ranges"))
     except _sets.SetError as exc:
         _fail(f"--checkpoint: its data set {s['path']!r}: {exc}")
     if record["sha256"] != s["sha256"]:

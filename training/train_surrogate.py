@@ -218,8 +218,8 @@ import pandas as pd
 manifest, spec = ds.read_manifest(data_sets[0]), sets[0]["spec"]
 table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
 records_read = sum(s_["records_ok_read"] for s_ in sets)
-if max_index < 0:
-    max_index = sets[0]["max_index"]
+if max_index < 0 or len(sets) == 1:
+    max_index = sets[0]["max_index"]          # capped at a growing set's labelling front
 N = len(table)
 # a truth-only set's records do not depend on the joints (no fit): it trains any n whose r
 # modes and n + 1 truth modes it holds; a labelled set only its own
@@ -696,7 +696,8 @@ meta = {
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
                           **{k: int(len(v)) for k, v in split.items()}},
                 **({"sets": sets, "sha256_of_sets": "sha256 of the sets' sha256 (hex) joined "
-                    "in order"} if len(sets) > 1 else {})},
+                    "in order"} if len(sets) > 1 else
+                   {"index_ranges": sets[0]["index_ranges"]})},
     "training": {"config": recorded_config,
                  "seeds": {"torch": seed, "numpy": seed, "batch_order": seed,
                            "members": [seed + j for j in range(members)]},

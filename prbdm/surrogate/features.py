@@ -49,6 +49,8 @@ without them (docs/surrogate.md §5).
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -276,16 +278,25 @@ def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
     (:func:`prbdm.truth.planform_ritz.ritz_bending_spectrum`, ~20 ms a panel): (B, modes)."""
     from ..truth.planform_ritz import ritz_bending_spectrum
     out = np.empty((len(batch), modes))
-    for i in range(len(batch)):
+
+    def one(i):
         x, w = batch.x[i], batch.w[i]                        # in units of the length
         keep = np.concatenate([[True], np.diff(x) > 0])     # padded stations repeat the last
         lam = ritz_bending_spectrum(x[keep], w[keep],
                                     float(batch.thickness[i] / batch.length[i]),
                                     float(batch.nu[i]), modes)
-        # omega_p^2 = D / (rho t L^4) = lambda0 / (12 (1 - nu^2))
         if not (np.all(np.isfinite(lam)) and np.all(lam > 0)):
             raise ArithmeticError(f"log_omega_ritz: the planform estimate of beam {i} failed "
                                   f"({lam.tolist()})")
         out[i] = 0.5 * np.log(lam / (12.0 * (1.0 - float(batch.nu[i]) ** 2)))
+
+    # LAPACK releases the GIL: large batches (training sets) on every core
+    workers = min(os.cpu_count() or 1, 8) if len(batch) >= 256 else 1
+    if workers > 1:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(one, range(len(batch))))
+    else:
+        for i in range(len(batch)):
+            one(i)
     return out
 
