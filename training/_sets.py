@@ -62,10 +62,12 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True, ra
     # a set still being labelled (two workers write their parts out of order) is read only up to
     # its labelling front, the last index below which every record exists: beyond it the records
     # read would depend on the moment, and no max_index could name them again
-    every = np.unique(ds.read_table(path, columns=["index"]).column("index").to_numpy())
-    gaps = np.flatnonzero(every != np.arange(len(every)))
-    front = int(gaps[0] if len(gaps) else len(every)) - 1
-    capped = ranges is None and top > front and len(every) < (manifest.get("count") or 0)
+    capped = False
+    if ranges is None:                     # recorded ranges name the records themselves
+        every = np.unique(ds.read_table(path, columns=["index"]).column("index").to_numpy())
+        gaps = np.flatnonzero(every != np.arange(len(every)))
+        front = int(gaps[0] if len(gaps) else len(every)) - 1
+        capped = top > front and len(every) < (manifest.get("count") or 0)
     if capped:
         top = front
     table = table[table["index"] <= top].reset_index(drop=True)

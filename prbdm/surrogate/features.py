@@ -34,10 +34,10 @@ left to the network; many of them are mixed bending-chordwise modes (docs/surrog
 ``ritz`` (plate networks): ``log_omega_ritz[r]``, the plate's bending spectrum (../SPEC §2.1)
 estimated by Rayleigh-Ritz on the planform itself (:mod:`prbdm.truth.planform_ritz`: a Mindlin
 plate in ``eta = y / w(x)``, ~350 unknowns). It sees what the chains cannot, the chord-wise
-modes and how they mix with bending, and is the base of a ``ritz`` network's frequencies. On 150
-wide panels of the Mindlin spectrum set the scatter of ``log omega_plate - log omega_ritz`` (std,
-modes 1-5) is 0.066 / 0.037 / 0.055 / 0.065 / 0.069, against the spread chain's 0.031 / 0.039 /
-0.13 / 0.18 / 0.18.
+modes and how they mix with bending, and is the base of a ``ritz`` network's frequencies. On
+1,000 wide panels of the Mindlin spectrum set the scatter of ``log omega_plate - log omega_ritz``
+(std, modes 1-5) is 0.061 / 0.044 / 0.058 / 0.076 / 0.072, against the spread chain's 0.030 /
+0.037 / 0.114 / 0.170 / 0.164 (benchmarks/planform_ritz.py, docs/validation.md).
 
 ``profile = P`` (plate networks): ``log_profile[i]``, the log of ``w / max(w)`` at the midpoints
 of P equal cells of x / L (floored at ``PROFILE_FLOOR``), and with ``spread``

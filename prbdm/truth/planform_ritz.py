@@ -20,11 +20,13 @@ What it is for: a physical estimate of the symmetric modes and their section fra
 the bending spectrum, in milliseconds instead of the FEM's second: the plate networks correct it
 (``FeatureSpec.ritz``). What it is not: a truth. A neck narrower than its neighbours bends the
 chord-wise field in a way a few polynomials of ``eta`` cannot follow, so on the paper's jagged
-panels it reads stiff by a few per cent (measured against ``solve_mindlin``, docs/surrogate.md);
+panels it reads stiff by a few per cent (measured against ``solve_mindlin``, docs/validation.md);
 on a rectangle it converges to the Kirchhoff and Mindlin references (tests/test_planform_ritz.py).
 NumPy only: ``prbdm predict`` may run it.
 """
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 from numpy.polynomial import legendre as npleg
@@ -70,9 +72,11 @@ def _span_basis(nodes: np.ndarray, degree: int):
     return xq, wq, V.reshape(-1, n), D.reshape(-1, n)
 
 
+@lru_cache(maxsize=8)
 def _chord_basis(terms: int, odd: bool):
     """Legendre polynomials of eta on the half chord [0, 1], even or odd: values, derivatives
-    and eta times the derivatives at the Gauss points, with the weights."""
+    and eta times the derivatives at the Gauss points, with the weights (the same for every
+    panel: computed once; read only)."""
     t, wt = npleg.leggauss(2 * CHORD_POINTS)
     eta, we = t[t > 0], wt[t > 0]
     Y, Yd = [], []
