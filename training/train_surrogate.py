@@ -116,6 +116,8 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
+    "ritz_modes": S(0, "with ritz: add the estimate's lowest symmetric modes too (their log "
+                       "frequencies and section fractions, 0-12: what its spectrum is made of)"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -135,6 +137,10 @@ def _fail(message):
 
 # ------------------------------------------------------------------------------- check inputs
 # everything that can be checked is checked here, before anything is written
+if ritz_modes:
+    from prbdm.surrogate.features import RITZ_PHYSICAL
+    if not ritz or not 0 < ritz_modes <= RITZ_PHYSICAL:
+        _fail(f"--ritz_modes: 0 to {RITZ_PHYSICAL}, and only with --ritz true, got {ritz_modes}")
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
@@ -163,21 +169,20 @@ for _d in data_sets:
 if not data_sets or len({Path(d).resolve() for d in data_sets}) != len(data_sets):
     _fail(f"--data: one or more distinct data set folders, comma-separated, got {data!r}")
 
+import _ritz_cache
 import torch  # after the configuration, as in nanoGPT (E402 is off for this file)
 
-from prbdm import chain, model, objectives
 from prbdm import dataset as ds
+from prbdm import model, objectives
 from prbdm import surrogate as sg
 from prbdm.chain import BeamBatch, uniform_gamma
 from prbdm.constants import GAMMA_MIN
 from prbdm.dataset.schema import flatten
-from prbdm.surrogate import features as features_module
 from prbdm.surrogate.checkpoint import member_prefixes, save_checkpoint
 from prbdm.surrogate.decode import candidate_losses, gauss_select_poses
 from prbdm.surrogate.features import PROFILE_FLOOR, FeatureSpec, feature_names, features
 from prbdm.surrogate.net import SurrogateEnsemble, SurrogateNet
 from prbdm.surrogate.prediction import OOD_MARGIN
-from prbdm.truth import planform_ritz
 
 if device == "auto":
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -266,7 +271,8 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz))
+                                             spread=spread, profile=profile, ritz=ritz,
+                                             ritz_modes=ritz_modes))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
@@ -322,25 +328,18 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
+                       ritz_modes=ritz_modes)
 # one set: the hash of its records (as before); several: of their hashes, in the given order
 sha = (sets[0]["sha256"] if len(sets) == 1 else
        hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
 batch = BeamBatch.from_table(table, material)
-# the Ritz estimate costs ~20 ms a panel (minutes for a set): its features are kept beside the
-# checkpoint, keyed by the records, the feature settings and the code that computes them
-_code = b"".join(Path(m_.__file__).read_bytes() for m_ in (chain, features_module, planform_ritz))
-_cache = (out_path.parent / ".feature-cache" / (hashlib.sha256(json.dumps(
-    [sha, N, max_index, fspec.to_dict()]).encode() + _code).hexdigest()[:24] + ".npy")
-          if ritz else None)
-if _cache is not None and _cache.exists():
-    feats = np.load(_cache)
-else:
-    feats = features(batch, fspec)
-    if _cache is not None:
-        _cache.parent.mkdir(parents=True, exist_ok=True)
-        np.save(_cache.with_suffix(".partial.npy"), feats)
-        os.replace(_cache.with_suffix(".partial.npy"), _cache)
+# the Ritz estimate costs ~20 ms a panel (minutes for a set): its columns are kept beside the
+# checkpoint, per set and index, for the next run (training/_ritz_cache.py)
+ritz_cols = (np.concatenate([_ritz_cache.ritz_columns(t_, s_["spec"], R,
+                                                      out_path.parent / ".feature-cache", log)
+                             for t_, s_ in zip(tables, sets)]) if ritz else None)
+feats = features(batch, fspec, ritz_cols)
 names = feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
 log_omega_hat = np.log(omega_truth / np.sqrt(batch.lambda0)[:, None])

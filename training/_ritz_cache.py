@@ -1,0 +1,82 @@
+"""The Rayleigh-Ritz columns of the features, kept between training runs.
+
+The plate's own estimate (:func:`prbdm.surrogate.features.ritz_columns`) costs ~20 ms a panel:
+minutes for a training set. A data set's panel is fixed by the set's spec and its index, so the
+columns are kept per set (``ritz-<key>.npz`` in a folder beside the checkpoint), keyed by the
+set's spec, the number of modes and the code that computes them, one row per index, with a
+digest of the row's planform, thickness and Poisson's ratio that must match when it is read
+back. A run computes only the panels no earlier run did (a set still being labelled grows).
+"""
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from prbdm.chain import BeamBatch
+from prbdm.surrogate import features as features_module
+from prbdm.truth import modes as modes_module
+from prbdm.truth import planform_ritz
+
+
+def _key(spec: dict, modes: int) -> str:
+    code = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__).read_bytes()
+            + inspect.getsource(features_module.ritz_columns).encode())
+    head = json.dumps({"spec": spec, "modes": modes,
+                       "physical": features_module.RITZ_PHYSICAL}, sort_keys=True).encode()
+    return hashlib.sha256(head + code).hexdigest()[:24]
+
+
+def _digests(table) -> np.ndarray:
+    nu = table["nu"].to_numpy() if "nu" in table.columns else np.zeros(len(table))
+    out = np.empty(len(table), dtype=np.uint64)
+    for i, (x, w, t, v) in enumerate(zip(table["x"], table["half_width"],
+                                         table["thickness"].to_numpy(), nu)):
+        h = hashlib.blake2b(np.asarray(x, np.float64).tobytes()
+                            + np.asarray(w, np.float64).tobytes()
+                            + np.float64(t).tobytes() + np.float64(v).tobytes(), digest_size=8)
+        out[i] = np.frombuffer(h.digest(), dtype=np.uint64)[0]
+    return out
+
+
+def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.ndarray:
+    """:func:`prbdm.surrogate.features.ritz_columns` of a data set's records ``table`` (pandas,
+    with ``index``), its rows read from ``folder`` where an earlier run computed them and the
+    rest computed now and added there."""
+    path = Path(folder) / f"ritz-{_key(spec, modes)}.npz"
+    index, digest = table["index"].to_numpy().astype(np.int64), _digests(table)
+    out = np.full((len(table), modes + 2 * features_module.RITZ_PHYSICAL), np.nan)
+    kept_index = np.zeros(0, np.int64)
+    if path.exists():
+        with np.load(path) as kept:
+            kept_index, kept_digest, kept_cols = kept["index"], kept["digest"], kept["columns"]
+        pos = np.clip(np.searchsorted(kept_index, index), 0, max(len(kept_index) - 1, 0))
+        hit = ((kept_index[pos] == index) & (kept_digest[pos] == digest) if len(kept_index)
+               else np.zeros(len(index), bool))
+        out[hit] = kept_cols[pos[hit]]
+    else:
+        hit = np.zeros(len(index), bool)
+    todo = np.flatnonzero(~hit)
+    log(f"  Ritz columns of {spec['beam'].get('family', 'paper')} panels, seed {spec['seed']}: "
+        f"{int(hit.sum())} kept in {path.name}, {len(todo)} to compute")
+    if len(todo):
+        batch = BeamBatch.from_table(table.iloc[todo], spec["beam"]["material"])
+        out[todo] = features_module.ritz_columns(batch, modes)
+        # every row known now, with the kept ones this run did not read
+        if len(kept_index):
+            other = ~np.isin(kept_index, index)
+            index = np.concatenate([index, kept_index[other]])
+            digest = np.concatenate([digest, kept_digest[other]])
+            cols = np.concatenate([out, kept_cols[other]])
+        else:
+            cols = out
+        order = np.argsort(index, kind="stable")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(path.name + ".partial.npz")
+        np.savez(partial, index=index[order], digest=digest[order], columns=cols[order])
+        os.replace(partial, path)
+    return out
