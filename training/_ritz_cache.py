@@ -22,13 +22,16 @@ from prbdm.surrogate import features as features_module
 from prbdm.truth import modes as modes_module
 from prbdm.truth import planform_ritz
 
+# the code that computes the columns, read once, as it was when it was imported (the source read
+# again later would be another one's after an edit during a run)
+_CODE = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__).read_bytes()
+         + inspect.getsource(features_module.ritz_columns).encode())
+
 
 def _key(spec: dict, modes: int) -> str:
-    code = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__).read_bytes()
-            + inspect.getsource(features_module.ritz_columns).encode())
     head = json.dumps({"spec": spec, "modes": modes,
                        "physical": features_module.RITZ_PHYSICAL}, sort_keys=True).encode()
-    return hashlib.sha256(head + code).hexdigest()[:24]
+    return hashlib.sha256(head + _CODE).hexdigest()[:24]
 
 
 def _digests(table) -> np.ndarray:
