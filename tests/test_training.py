@@ -460,7 +460,8 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     ("plate-n4", None), ("mindlin-n4", None),
     # the generic kernels take ~7x longer on the Ritz features (~15 min on 2 cores): on demand;
     # tests/test_planform_ritz.py checks those features against them in seconds
-    pytest.param("mindlin-n4", "Prescott", marks=pytest.mark.slow)])
+    pytest.param("mindlin-n4", "Prescott", marks=pytest.mark.slow),
+    pytest.param("mindlin-n3", None, marks=pytest.mark.slow)])      # its recipe is mindlin-n4's
 def test_retest_reproduces_a_shipped_checkpoints_test(name, coretype, monkeypatch):
     """training/retest.py rebuilds the test split from the committed data sets the metadata
     records and measures it with training's own code (_heldout.py): every recorded figure, the

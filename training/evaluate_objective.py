@@ -89,17 +89,30 @@ for path in [p for p in cfg["checkpoints"].split(",") if p]:
         rows[-1]["direct_p95_per_mode"] = np.percentile(direct, 95, 0).round(4).tolist()
 
 fit_median = rows[0]["worst_median"]
+#: a fits' median below this (in %) is exact: the ratios to it are shown as 'exact' (None)
+EXACT = 1e-6
 print(f"{B} held-out beams of {cfg['data']} (seed {spec['seed']}), n = {spec['joints']}, "
       f"{r} modes, {spec['poses']} poses, {spec['truth']} truth; {int(refused.sum())} left out, "
       f"refused by today's {spec['truth']} truth")
 print(f"{'method':58s} {'worst-mode err median %':>23s} {'p95 %':>7s} {'x fit':>6s} "
       f"{'paper loss median %':>20s} {'p95 %':>8s} {'x fit':>6s}")
+
+
+def _ratio(value, fit):
+    """value / fit, None where the fits are exact (a ratio to a zero means nothing)."""
+    return None if fit < EXACT else value / fit
+
+
+def _show(ratio):
+    return f"{'exact':>6s}" if ratio is None else f"{ratio:6.2f}"
+
+
 for row in rows:
-    row["ratio_to_fit"] = row["worst_median"] / fit_median
-    row["loss_ratio_to_fit"] = row["loss_median"] / rows[0]["loss_median"]
+    row["ratio_to_fit"] = _ratio(row["worst_median"], fit_median)
+    row["loss_ratio_to_fit"] = _ratio(row["loss_median"], rows[0]["loss_median"])
     print(f"{row['method']:58s} {row['worst_median']:23.3f} {row['worst_p95']:7.2f} "
-          f"{row['ratio_to_fit']:6.2f} {row['loss_median']:20.4f} {row['loss_p95']:8.3f} "
-          f"{row['loss_ratio_to_fit']:6.2f}")
+          f"{_show(row['ratio_to_fit'])} {row['loss_median']:20.4f} {row['loss_p95']:8.3f} "
+          f"{_show(row['loss_ratio_to_fit'])}")
 for row in rows[1:]:
     if "direct_median_per_mode" in row:
         print(f"{row['method']}: its truth-frequency prediction, error per mode median "
