@@ -9,6 +9,15 @@ poses, so this compares any network's with the set's truth, e.g. a previous chec
 (``git show COMMIT:checkpoints/mindlin-n4.safetensors > old.safetensors``). Printed per network:
 median and p95 of ``|omega_predicted / omega_truth - 1|`` per mode, in %, and how many panels it
 refused (a Poisson's ratio or thickness it never learned: answered one by one to count them).
+
+``--thin-limit T`` (a Kirchhoff ``plate`` set only): a Mindlin network answers each panel at
+``t = T L`` and its frequencies are scaled by ``t / (T L)``, the thin limit in which the Mindlin
+plate is the Kirchhoff plate (whose frequencies are proportional to t): how a Mindlin network
+would answer the Kirchhoff truth, beside the Kirchhoff networks (docs/method.md, "One plate
+family"):
+
+    python benchmarks/direct_frequencies.py --data datasets/plate-spectrum-seed11 --thin-limit \
+        0.002 --checkpoints checkpoints/plate-n4.safetensors,checkpoints/mindlin-n4.safetensors
 """
 from __future__ import annotations
 
@@ -34,8 +43,12 @@ def main(argv=None) -> int:
     ap.add_argument("--data", required=True)
     ap.add_argument("--checkpoints", required=True)
     ap.add_argument("--modes", type=int, default=4)
+    ap.add_argument("--thin-limit", type=float, default=0.0)
     a = ap.parse_args(argv)
     spec = json.loads(Path(a.data, "_manifest.json").read_text())["spec"]
+    if a.thin_limit and (spec["truth"] != "plate" or not 0 < a.thin_limit <= 0.01):
+        ap.error(f"--thin-limit: a t/L in (0, 0.01], on a Kirchhoff plate set only (this one's "
+                 f"truth is {spec['truth']!r})")
     mat = spec["beam"]["material"]
     table = pa.concat_tables([pq.read_table(f) for f in
                               sorted(glob.glob(str(Path(a.data, "part-*.parquet"))))],
@@ -49,27 +62,35 @@ def main(argv=None) -> int:
     print(f"{len(beams)} panels of {a.data}; |omega_predicted / omega_truth - 1|, modes 1-{R}")
     for path in a.checkpoints.split(","):
         sur = sg.load_checkpoint(path)
+        thin = a.thin_limit if (a.thin_limit and sur.truth == "mindlin") else 0.0
+        if thin:            # the same panels at t = thin L; frequencies scale with t (Kirchhoff)
+            asked = [Beam(x=b.x, half_width=b.half_width, thickness=thin * b.length,
+                          material=b.material) for b in beams]
+            scale = np.array([b.thickness / (thin * b.length) for b in beams])[:, None]
+        else:
+            asked, scale = beams, 1.0
         om = np.full((len(beams), R), np.nan)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                om = sur.predict(beams, frequencies=True, warn=False).omega_truth[:, :R]
+                om = sur.predict(asked, frequencies=True, warn=False).omega_truth[:, :R]
             except BadInput:                  # some panels refused: one by one, to count them
-                for i, b in enumerate(beams):
+                for i, b in enumerate(asked):
                     try:
                         om[i] = sur.predict([b], frequencies=True,
                                             warn=False).omega_truth[0, :R]
                     except BadInput:
                         pass
-        e = 100 * np.abs(om / truth - 1)
+        e = 100 * np.abs(om * scale / truth - 1)
         ok = ~np.isnan(e).any(1)
         refused = int((~ok).sum())
+        name = Path(path).name + (f" (thin limit, t/L = {thin:g})" if thin else "")
         if ok.any():
-            print(f"  {Path(path).name}: median {np.round(np.median(e[ok], 0), 2).tolist()} %, "
+            print(f"  {name}: median {np.round(np.median(e[ok], 0), 2).tolist()} %, "
                   f"p95 {np.round(np.percentile(e[ok], 95, axis=0), 2).tolist()} %; "
                   f"{refused} refused")
         else:
-            print(f"  {Path(path).name}: refused all {refused} panels")
+            print(f"  {name}: refused all {refused} panels")
     return 0
 
 
