@@ -22,7 +22,7 @@ from prbdm.surrogate.checkpoint import (
     save_checkpoint,
     weights_sha256,
 )
-from prbdm.surrogate.features import RITZ_PHYSICAL, ritz_columns
+from prbdm.surrogate.features import ritz_log_omega
 
 REPO = Path(__file__).resolve().parents[1]
 TRAINING = REPO / "training"
@@ -98,9 +98,6 @@ def _one_line_exit_2(run, *words):
     (("--data", "DATA", "--out", "OUT", "--device", "abacus"), ["--device", "abacus"]),
     (("--data", "DATA", "--out", "OUT", "--modes", "physics", "--init_gamma", "0.5,0.5"),
      ["--init_gamma", "3"]),
-    (("--data", "DATA", "--out", "OUT", "--ritz", "true", "--ritz_modes", "13"),
-     ["--ritz_modes", "12"]),
-    (("--data", "DATA", "--out", "OUT", "--ritz_modes", "4"), ["--ritz_modes", "--ritz true"]),
 ])
 def test_train_bad_input_exits_2_and_writes_nothing(tmp_path, tiny_data, args, words):
     """Exit 2 with one line, and the folder of OUT exactly as before: an earlier log and
@@ -360,8 +357,7 @@ def test_a_set_still_being_labelled_is_read_up_to_its_front(tmp_path, tiny_data)
 def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
     """A ritz network's Ritz columns (the planform estimate, ~20 ms a panel) are kept beside the
     checkpoint per set and index: a run on more records computes only the new ones, a run on
-    the same records writes nothing, and the kept columns are the estimate itself; the
-    estimate's physical modes (``--ritz_modes``) are features of a network that predicts."""
+    the same records writes nothing, and the kept columns are the estimate itself."""
     out = tmp_path / "runs" / "net.safetensors"
     args = ["--data", tiny_data, "--out", out, "--device", "cpu", *TINY_NET, "--spread", "true",
             "--ritz", "true", "--seed", "3"]
@@ -370,7 +366,7 @@ def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
     assert "0 kept" in first.stdout and "12 to compute" in first.stdout
     cache = sorted((out.parent / ".feature-cache").iterdir())
     assert len(cache) == 1 and cache[0].name.startswith("ritz-") and cache[0].suffix == ".npz"
-    more = script("train_surrogate.py", *args, "--ritz_modes", "3", cwd=tmp_path)
+    more = script("train_surrogate.py", *args, "--seed", "4", cwd=tmp_path)
     assert more.returncode == 0, more.stderr[-3000:]
     assert "12 kept" in more.stdout and "8 to compute" in more.stdout
     stamp = cache[0].stat().st_mtime_ns
@@ -383,16 +379,7 @@ def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
     table = D.read_table(tiny_data, status="ok").to_pandas()
     batch = BeamBatch.from_table(table, D.read_manifest(tiny_data)["spec"]["beam"]["material"])
     assert index.tolist() == table["index"].tolist()
-    np.testing.assert_allclose(columns, ritz_columns(batch, columns.shape[1]
-                                                     - 2 * RITZ_PHYSICAL), rtol=1e-9)
-    # a network with the physical modes as features predicts with them
-    net = tmp_path / "rm.safetensors"
-    rm = script("train_surrogate.py", *[net if a == out else a for a in args],
-                "--ritz_modes", "3", cwd=tmp_path)
-    assert rm.returncode == 0, rm.stderr[-3000:]
-    names = read_checkpoint(net)[1]["features"]["names"]
-    assert "section_ritz_mode[2]" in names and "section_ritz_mode[3]" not in names
-    assert names[-1].startswith("log_omega_ritz[")
+    np.testing.assert_allclose(columns, ritz_log_omega(batch, columns.shape[1]), rtol=1e-9)
 
 
 def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):

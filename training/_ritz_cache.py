@@ -1,6 +1,6 @@
 """The Rayleigh-Ritz columns of the features, kept between training runs.
 
-The plate's own estimate (:func:`prbdm.surrogate.features.ritz_columns`) costs ~20 ms a panel:
+The plate's own estimate (:func:`prbdm.surrogate.features.ritz_log_omega`) costs ~20 ms a panel:
 minutes for a training set. A data set's panel is fixed by the set's spec and its index, so the
 columns are kept per set (``ritz-<key>.npz`` in a folder beside the checkpoint), keyed by the
 set's spec, the number of modes and the code that computes them, one row per index, with a
@@ -25,12 +25,11 @@ from prbdm.truth import planform_ritz
 # the code that computes the columns, read once, as it was when it was imported (the source read
 # again later would be another one's after an edit during a run)
 _CODE = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__).read_bytes()
-         + inspect.getsource(features_module.ritz_columns).encode())
+         + inspect.getsource(features_module.ritz_log_omega).encode())
 
 
 def _key(spec: dict, modes: int) -> str:
-    head = json.dumps({"spec": spec, "modes": modes,
-                       "physical": features_module.RITZ_PHYSICAL}, sort_keys=True).encode()
+    head = json.dumps({"spec": spec, "modes": modes}, sort_keys=True).encode()
     return hashlib.sha256(head + _CODE).hexdigest()[:24]
 
 
@@ -47,12 +46,12 @@ def _digests(table) -> np.ndarray:
 
 
 def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.ndarray:
-    """:func:`prbdm.surrogate.features.ritz_columns` of a data set's records ``table`` (pandas,
+    """:func:`prbdm.surrogate.features.ritz_log_omega` of a data set's records ``table`` (pandas,
     with ``index``), its rows read from ``folder`` where an earlier run computed them and the
     rest computed now and added there."""
     path = Path(folder) / f"ritz-{_key(spec, modes)}.npz"
     index, digest = table["index"].to_numpy().astype(np.int64), _digests(table)
-    out = np.full((len(table), modes + 2 * features_module.RITZ_PHYSICAL), np.nan)
+    out = np.full((len(table), modes), np.nan)
     kept_index = np.zeros(0, np.int64)
     if path.exists():
         with np.load(path) as kept:
@@ -68,7 +67,7 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.n
         f"{int(hit.sum())} kept in {path.name}, {len(todo)} to compute")
     if len(todo):
         batch = BeamBatch.from_table(table.iloc[todo], spec["beam"]["material"])
-        out[todo] = features_module.ritz_columns(batch, modes)
+        out[todo] = features_module.ritz_log_omega(batch, modes)
         # every row known now, with the kept ones this run did not read
         if len(kept_index):
             other = ~np.isin(kept_index, index)

@@ -116,8 +116,6 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
-    "ritz_modes": S(0, "with ritz: add the estimate's lowest symmetric modes too (their log "
-                       "frequencies and section fractions, 0-12: what its spectrum is made of)"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -137,10 +135,6 @@ def _fail(message):
 
 # ------------------------------------------------------------------------------- check inputs
 # everything that can be checked is checked here, before anything is written
-if ritz_modes:
-    from prbdm.surrogate.features import RITZ_PHYSICAL
-    if not ritz or not 0 < ritz_modes <= RITZ_PHYSICAL:
-        _fail(f"--ritz_modes: 0 to {RITZ_PHYSICAL}, and only with --ritz true, got {ritz_modes}")
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
@@ -271,8 +265,7 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz,
-                                             ritz_modes=ritz_modes))
+                                             spread=spread, profile=profile, ritz=ritz))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
@@ -328,8 +321,7 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
-                       ritz_modes=ritz_modes)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
 # one set: the hash of its records (as before); several: of their hashes, in the given order
 sha = (sets[0]["sha256"] if len(sets) == 1 else
        hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())

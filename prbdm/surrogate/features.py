@@ -38,9 +38,6 @@ modes and how they mix with bending, and is the base of a ``ritz`` network's fre
 1,000 wide panels of the Mindlin spectrum set the scatter of ``log omega_plate - log omega_ritz``
 (std, modes 1-5) is 0.061 / 0.044 / 0.058 / 0.076 / 0.072, against the spread chain's 0.030 /
 0.037 / 0.114 / 0.170 / 0.164 (benchmarks/planform_ritz.py, docs/validation.md).
-With ``ritz_modes = k`` the same solve's lowest k symmetric modes are features too,
-``log_omega_ritz_mode[j]`` (log nondimensional frequency, as above) and ``section_ritz_mode[j]``
-(section fraction): what the spectrum is made of, where a bending and a chord-wise mode mix.
 
 ``profile = P`` (plate networks): ``log_profile[i]``, the log of ``w / max(w)`` at the midpoints
 of P equal cells of x / L (floored at ``PROFILE_FLOOR``), and with ``spread``
@@ -70,7 +67,6 @@ from ..errors import BadInput
 
 #: beams per piece in features() and Surrogate.forward(): bounds the memory of large batches
 CHUNK = 2048
-RITZ_PHYSICAL = 12      # the Ritz estimate's lowest symmetric modes kept beside its spectrum
 #: slope of the load spread behind ``log_omega_spread``: half-width gained per span length
 #: (1 = 45 degrees; the module text gives the measured scatter for 0.5, 1 and 2)
 SPREAD_SLOPE = 1.0
@@ -186,7 +182,6 @@ class FeatureSpec:
     spread: bool = False         # add log_omega_spread, the base of the predicted frequencies
     profile: int = 0             # > 0: add the width profile at this many points of x / L
     ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
-    ritz_modes: int = 0          # with ritz: add the estimate's lowest symmetric modes too
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
@@ -197,8 +192,6 @@ class FeatureSpec:
             out["profile"] = self.profile
         if self.ritz:            # the same
             out["ritz"] = True
-        if self.ritz_modes:      # the same
-            out["ritz_modes"] = self.ritz_modes
         return out
 
     def base_columns(self, modes: int) -> slice:
@@ -225,9 +218,6 @@ def feature_names(spec: FeatureSpec) -> list[str]:
     names += [f"log_profile[{i}]" for i in range(spec.profile)]
     if spec.spread:
         names += [f"log_spread_profile[{i}]" for i in range(spec.profile)]
-    if spec.ritz and spec.ritz_modes:
-        names += [f"log_omega_ritz_mode[{j}]" for j in range(spec.ritz_modes)]
-        names += [f"section_ritz_mode[{j}]" for j in range(spec.ritz_modes)]
     if spec.ritz:
         names += [f"log_omega_ritz[{r}]" for r in range(spec.rfe_modes)]
     return names
@@ -243,8 +233,8 @@ def width_profile(x, w, points: int) -> np.ndarray:
 
 def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(), ritz=None) -> np.ndarray:
     """(B, F) features of the planforms (see the module docstring; names: :func:`feature_names`).
-    ``ritz``: :func:`ritz_columns` of the batch where they were computed before (training keeps
-    them, the costly part), else they are computed here.
+    ``ritz``: :func:`ritz_log_omega` of the batch where it was computed before (training keeps
+    it, the costly part), else it is computed here.
 
     Invariant to scaling all half-widths, the thickness, the length, E and rho (beam truth);
     the plate truth adds ``log_aspect`` and ``nu``, and ``spread`` ``log_omega_spread``, which
@@ -281,14 +271,10 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(), ritz=None) -> 
             # its own): where a neck cuts the load path
             cols.append(width_profile(xs, ws, spec.profile) + np.log(ws.max(-1) / wmax)[:, None])
     if spec.ritz:
-        R, k = spec.rfe_modes, spec.ritz_modes
-        est = ritz_columns(batch, R) if ritz is None else np.asarray(ritz)
-        if est.shape != (len(batch), R + 2 * RITZ_PHYSICAL) or not 0 <= k <= RITZ_PHYSICAL:
-            raise ValueError(f"ritz: expected ({len(batch)}, {R + 2 * RITZ_PHYSICAL}) columns "
-                             f"and ritz_modes <= {RITZ_PHYSICAL}, got {est.shape}, {k}")
-        if k:
-            cols += [est[:, R:R + k], est[:, R + RITZ_PHYSICAL:R + RITZ_PHYSICAL + k]]
-        cols.append(est[:, :R])
+        est = ritz_log_omega(batch, spec.rfe_modes) if ritz is None else np.asarray(ritz)
+        if est.shape != (len(batch), spec.rfe_modes):
+            raise ValueError(f"ritz: expected ({len(batch)}, {spec.rfe_modes}), got {est.shape}")
+        cols.append(est)
     return np.concatenate(cols, axis=1)
 
 
@@ -296,30 +282,19 @@ def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
     """log of the nondimensional frequencies ``omega / sqrt(E t^2 / (rho L^4))`` of the plate's
     bending spectrum estimated by Rayleigh-Ritz on the planform
     (:func:`prbdm.truth.planform_ritz.ritz_bending_spectrum`, ~20 ms a panel): (B, modes)."""
-    return ritz_columns(batch, modes)[:, :modes]
-
-
-def ritz_columns(batch: BeamBatch, modes: int) -> np.ndarray:
-    """What one Rayleigh-Ritz solve of each planform gives the features, (B, modes + 2
-    ``RITZ_PHYSICAL``): :func:`ritz_log_omega`'s spectrum, then the log nondimensional
-    frequencies of the estimate's lowest ``RITZ_PHYSICAL`` symmetric modes and their section
-    fractions (what the spectrum is made of: ``ritz_modes`` features)."""
-    from ..truth.planform_ritz import ritz_estimate
-    out = np.empty((len(batch), modes + 2 * RITZ_PHYSICAL))
+    from ..truth.planform_ritz import ritz_bending_spectrum
+    out = np.empty((len(batch), modes))
 
     def one(i):
         x, w = batch.x[i], batch.w[i]                        # in units of the length
         keep = np.concatenate([[True], np.diff(x) > 0])     # padded stations repeat the last
-        nu = float(batch.nu[i])
-        lam, phys, frac = ritz_estimate(x[keep], w[keep], float(batch.thickness[i]
-                                                                / batch.length[i]),
-                                        nu, modes, RITZ_PHYSICAL)
-        if not (np.all(np.isfinite(lam)) and np.all(lam > 0) and len(phys) == RITZ_PHYSICAL):
+        lam = ritz_bending_spectrum(x[keep], w[keep],
+                                    float(batch.thickness[i] / batch.length[i]),
+                                    float(batch.nu[i]), modes)
+        if not (np.all(np.isfinite(lam)) and np.all(lam > 0)):
             raise ArithmeticError(f"log_omega_ritz: the planform estimate of beam {i} failed "
                                   f"({lam.tolist()})")
-        out[i, :modes] = 0.5 * np.log(lam / (12.0 * (1.0 - nu ** 2)))
-        out[i, modes:modes + RITZ_PHYSICAL] = 0.5 * np.log(phys / (12.0 * (1.0 - nu ** 2)))
-        out[i, modes + RITZ_PHYSICAL:] = frac
+        out[i] = 0.5 * np.log(lam / (12.0 * (1.0 - float(batch.nu[i]) ** 2)))
 
     # LAPACK releases the GIL: large batches (training sets) on every core
     workers = min(os.cpu_count() or 1, 8) if len(batch) >= 256 else 1
@@ -330,3 +305,4 @@ def ritz_columns(batch: BeamBatch, modes: int) -> np.ndarray:
         for i in range(len(batch)):
             one(i)
     return out
+

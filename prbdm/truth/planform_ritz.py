@@ -33,7 +33,7 @@ from numpy.polynomial import legendre as npleg
 
 from .modes import bending_spectrum
 
-__all__ = ["planform_ritz", "ritz_bending_spectrum", "ritz_estimate", "RITZ_DEFAULTS"]
+__all__ = ["planform_ritz", "ritz_bending_spectrum", "RITZ_DEFAULTS"]
 
 #: the estimate the plate networks read: span-wise cubic elements at most 0.2 L long, three
 #: chord-wise terms per field (~350 unknowns, ~15 ms a panel)
@@ -183,12 +183,6 @@ def ritz_bending_spectrum(x, w, tau: float, nu: float, modes: int, **options) ->
     sqrt(lam)``. Only the lower third of the Ritz modes enter (the rest are too coarse to
     count); should they not hold ``modes`` units of bending, the missing eigenvalues continue
     the last one's ratio to the one below it."""
-    return ritz_estimate(x, w, tau, nu, modes, 0, **options)[0]
-
-
-def ritz_estimate(x, w, tau: float, nu: float, modes: int, physical: int, **options):
-    """``(spectrum, lam, section_fraction)``: :func:`ritz_bending_spectrum`'s (modes,) and the
-    lowest ``physical`` symmetric modes it is made of, from one solve."""
     lam, frac = planform_ritz(x, w, tau, nu, **{**RITZ_DEFAULTS, **options})
     use = max(len(lam) // 3, 4)
     out, _, _ = bending_spectrum(lam[:use], frac[:use], modes)
@@ -196,4 +190,4 @@ def ritz_estimate(x, w, tau: float, nu: float, modes: int, physical: int, **opti
         if not np.isfinite(out[j]):
             out[j] = (lam[0] if j == 0 else
                       out[j - 1] * (out[j - 1] / out[j - 2] if j >= 2 else 4.0))
-    return out, lam[:physical], frac[:physical]
+    return out
