@@ -142,9 +142,13 @@ def checkpoints_page(folder: Path | None = None) -> str:
             tgt = ("" if sp.get("truth", m["truth"]) == "beam" else
                    f", target `{target}`" if target else
                    ", target: the section rule's physical modes (made before the bending spectrum)")
+            if b.get("family") == "smooth":     # prbdm.planforms: its own ranges
+                gen = (f"smooth planforms, full width {b.get('width')} L, t/L "
+                       f"{b.get('thickness')}, nu {b.get('nu')}")
+            else:
+                gen = (f"half-width bound {mhw} m, min half-width {b.get('min_half_width')} m")
             out.append(f"- data set `{s.get('path')}`: {s.get('size', 0):,} panels, seed "
-                       f"{sp.get('seed')}, half-width bound {mhw} m, min half-width "
-                       f"{b.get('min_half_width')} m, fits with {sp.get('starts')} starts{tgt}")
+                       f"{sp.get('seed')}, {gen}, fits with {sp.get('starts')} starts{tgt}")
         init = (m.get("training") or {}).get("init_from")
         if init:
             out.append(f"- fine-tuned from `{init.get('name') or init.get('path')}`")
