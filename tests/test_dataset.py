@@ -92,6 +92,30 @@ def test_spec_width_range(tmp_path, capsys):
     assert len(err) == 1 and "--max-half-width" in err[0]
 
 
+
+def test_spec_thickness_range(tmp_path, capsys):
+    """--thickness LO,HI (the paper's generator): part of the spec, the generator's bounds,
+    refused with one line naming the allowed range, and not an option of the smooth family."""
+    spec = D.make_spec(joints=2, thickness=[0.002, 0.01])
+    assert (spec["beam"]["min_thickness"], spec["beam"]["max_thickness"]) == (0.002, 0.01)
+    assert D.spec_difference(D.make_spec(joints=2), spec) in ("beam.max_thickness",
+                                                               "beam.min_thickness")
+    b = D.beam_for(spec, 4)
+    assert b.thickness == random_beam(0, 4, min_thickness=0.002, max_thickness=0.01).thickness
+    assert 0.002 <= min(D.beam_for(spec, i).thickness for i in range(20)) < 0.01
+    for bad in ([0.01, 0.002], [0.002], [0.0, 0.01], [0.002, 0.3], [float("nan"), 0.01]):
+        with pytest.raises(BadInput, match=r"--thickness.*0 < LO <= HI <= 0.2"):
+            D.make_spec(joints=2, thickness=bad)
+    with pytest.raises(BadInput, match="--thickness: an option of the paper's generator"):
+        D.make_spec(joints=2, family="smooth", thickness=[0.002, 0.01])
+    args = ["dataset", "generate", "--out", str(tmp_path / "thin"), "--count", "2", "--joints",
+            "2", "--starts", "0", "--workers", "0", "--progress", "none"]
+    assert main(args + ["--thickness", "0.01,0.002"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--thickness" in err[0] and "0.2" in err[0]
+    assert not (tmp_path / "thin").exists()
+
+
 # ---------------------------------------------------------------------- storage, resume, extend
 
 def test_generate_extend_and_plain_pyarrow(tmp_path):

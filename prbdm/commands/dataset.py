@@ -61,6 +61,9 @@ def add_arguments(parser):
                    help="upper bound on the random half-widths [m] (default 0.5, the paper's); "
                    "LO,HI: each beam's bound drawn log-uniformly in [LO, HI] (narrow and wide "
                    "panels in one set)")
+    g.add_argument("--thickness", metavar="LO,HI",
+                   help="bounds of the random thickness [m] (default 0.01,0.05, the paper's): "
+                   "HI times a uniform draw, raised to LO; e.g. 0.002,0.05 for thin panels too")
     g.add_argument("--workers", type=positive_int(0), metavar="W",
                    help="worker processes (default: usable cores; 0 = in this process)")
     g.add_argument("--scheduler", metavar="ADDRESS",
@@ -106,6 +109,9 @@ def _generate(args) -> int:
                              max_half_width=(None if args.max_half_width is None else
                                              float_list(args.max_half_width, "--max-half-width",
                                                         positive=True)),
+                             thickness=(None if args.thickness is None else
+                                        float_list(args.thickness, "--thickness",
+                                                   positive=True)),
                              fit_batch=args.fit_batch, objective=args.objective,
                              target=args.target, family=args.family)
     previous = signal.signal(signal.SIGTERM, _sigterm)

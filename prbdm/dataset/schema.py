@@ -11,7 +11,7 @@ import numpy as np
 
 from ..constants import DEFAULT_STARTS, OBJECTIVES  # noqa: F401  (re-exported)
 from ..errors import BadInput
-from ..geometry import RANDOM_DEFAULTS, Beam, Material, random_beam
+from ..geometry import MAX_THICKNESS_RATIO, RANDOM_DEFAULTS, Beam, Material, random_beam
 
 MANIFEST = "_manifest.json"
 FORMAT = "prbdm-dataset"
@@ -42,7 +42,8 @@ FLUSH_S = 60.0
 FLAGS = {"seed": "--seed", "joints": "--joints", "modes": "--modes", "truth": "--truth",
          "truth_modes": "--modes", "law": "--law", "poses": "--poses", "starts": "--starts",
          "beam.p": "--stations", "beam.min_half_width": "--min-half-width",
-         "beam.max_half_width": "--max-half-width",
+         "beam.max_half_width": "--max-half-width", "beam.min_thickness": "--thickness",
+         "beam.max_thickness": "--thickness",
          "fit_batch": "--fit-batch", "objective": "--objective", "target": "--target",
          "beam.family": "--family"}
 
@@ -52,7 +53,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
               min_half_width: float | None = None, truth_modes: int | None = None,
               material: Material | None = None, fit_batch: int | None = None,
               objective: str | None = None, max_half_width=None,
-              target: str | None = None, family: str = "paper") -> dict:
+              target: str | None = None, family: str = "paper", thickness=None) -> dict:
     """The JSON-able description of a data set: everything that decides a record.
 
     ``modes`` (default ``joints``) is the number of truth modes the fit maps; the truth is computed
@@ -94,7 +95,8 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
     if family == "smooth":
         # prbdm.planforms.smooth_beam: its own ranges; the paper generator's options do not apply
         given = [n for n, v in (("--stations", p), ("--min-half-width", min_half_width),
-                                ("--max-half-width", max_half_width)) if v is not None]
+                                ("--max-half-width", max_half_width),
+                                ("--thickness", thickness)) if v is not None]
         if given:
             raise BadInput(f"{given[0]}: an option of the paper's generator, not of --family "
                            "smooth (uniform, tapered, trapezoidal and necked planforms, full "
@@ -104,7 +106,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
         gen = {"family": "smooth", **{k: list(v) if isinstance(v, tuple) else v
                                       for k, v in SMOOTH_DEFAULTS.items()}}
     elif family == "paper":
-        gen = _paper_generator(p, min_half_width, max_half_width, integer)
+        gen = _paper_generator(p, min_half_width, max_half_width, integer, thickness)
     else:
         raise BadInput(f"--family: must be paper or smooth, got {family!r}")
     gen["material"] = (material or Material()).to_dict()
@@ -121,7 +123,7 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
     return spec
 
 
-def _paper_generator(p, min_half_width, max_half_width, integer) -> dict:
+def _paper_generator(p, min_half_width, max_half_width, integer, thickness=None) -> dict:
     """The paper generator's options of a spec (:func:`prbdm.geometry.random_beam`), checked."""
     gen = dict(RANDOM_DEFAULTS)
     if p is not None:
@@ -142,6 +144,14 @@ def _paper_generator(p, min_half_width, max_half_width, integer) -> dict:
             raise BadInput(f"--min-half-width: must lie in [0, {lowest}) m (below the "
                            f"smallest --max-half-width), got {min_half_width!r}")
         gen["min_half_width"] = float(min_half_width)
+    if thickness is not None:
+        top = MAX_THICKNESS_RATIO * gen["length"]
+        t = list(thickness) if np.ndim(thickness) else [thickness]
+        if not (len(t) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                    and math.isfinite(v) for v in t) and 0 < t[0] <= t[1] <= top):
+            raise BadInput(f"--thickness: two bounds LO,HI [m] with 0 < LO <= HI <= {top:g} "
+                           f"(t/L up to {MAX_THICKNESS_RATIO:g}), got {thickness!r}")
+        gen["min_thickness"], gen["max_thickness"] = float(t[0]), float(t[1])
     return gen
 
 
