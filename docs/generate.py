@@ -88,6 +88,9 @@ def _pose_target(meta: dict) -> str:
 
 def checkpoints_page(folder: Path | None = None) -> str:
     folder = folder or REPO / "checkpoints"
+    from prbdm.geometry import RANDOM_DEFAULTS
+
+    paper_thickness = (RANDOM_DEFAULTS["min_thickness"], RANDOM_DEFAULTS["max_thickness"])
     out = [HEADER.format(src="checkpoints/*.json"),
            "# Shipped checkpoints\n",
            "The networks `prbdm predict` looks up as `TRUTH-nJOINTS[-frequency].safetensors` "
@@ -146,7 +149,10 @@ def checkpoints_page(folder: Path | None = None) -> str:
                 gen = (f"smooth planforms, full width {b.get('width')} L, t/L "
                        f"{b.get('thickness')}, nu {b.get('nu')}")
             else:
-                gen = (f"half-width bound {mhw} m, min half-width {b.get('min_half_width')} m")
+                gen = (f"half-width bound {mhw} m, min half-width {b.get('min_half_width')} m"
+                       + (f", thickness {b.get('min_thickness')}-{b.get('max_thickness')} m"
+                          if (b.get("min_thickness"), b.get("max_thickness"))
+                          not in ((None, None), paper_thickness) else ""))
             out.append(f"- data set `{s.get('path')}`: {s.get('size', 0):,} panels, seed "
                        f"{sp.get('seed')}, {gen}, fits with {sp.get('starts')} starts{tgt}")
         init = (m.get("training") or {}).get("init_from")

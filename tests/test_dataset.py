@@ -92,7 +92,6 @@ def test_spec_width_range(tmp_path, capsys):
     assert len(err) == 1 and "--max-half-width" in err[0]
 
 
-
 def test_spec_thickness_range(tmp_path, capsys):
     """--thickness LO,HI (the paper's generator): part of the spec, the generator's bounds,
     refused with one line naming the allowed range, and not an option of the smooth family."""

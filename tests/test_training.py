@@ -384,7 +384,7 @@ def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
 
 def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):
     """A kept row whose planform no longer matches its index (a set relabelled under the same
-    spec) is computed again, not read."""
+    spec) is computed again, not read; an unreadable file is computed again."""
     import _ritz_cache
     table = D.read_table(tiny_data, status="ok").to_pandas().iloc[:4].reset_index(drop=True)
     spec = D.read_manifest(tiny_data)["spec"]
@@ -396,6 +396,17 @@ def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):
     assert "3 kept" in lines[0] and "1 to compute" in lines[0]
     np.testing.assert_array_equal(second[[0, 2, 3]], first[[0, 2, 3]])
     assert not np.allclose(second[1, :3], first[1, :3])
+    material = spec["beam"]["material"]
+    np.testing.assert_allclose(second[1], ritz_log_omega(
+        BeamBatch.from_table(changed.iloc[[1]], material), 3)[0], rtol=1e-12)
+    # a damaged file (a run killed while another wrote) is computed again, not a traceback
+    (kept,) = tmp_path.glob("ritz-*.npz")
+    kept.write_bytes(b"not a zip file")
+    lines = []
+    third = _ritz_cache.ritz_columns(changed, spec, 3, tmp_path, log=lines.append)
+    assert "unreadable" in lines[0] and "4 to compute" in lines[1]
+    np.testing.assert_allclose(third, second, rtol=1e-12)
+    assert [p.name for p in tmp_path.iterdir()] == [kept.name]       # no partial file left
 
 
 def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):

@@ -6,6 +6,8 @@ columns are kept per set (``ritz-<key>.npz`` in a folder beside the checkpoint),
 set's spec, the number of modes and the code that computes them, one row per index, with a
 digest of the row's planform, thickness and Poisson's ratio that must match when it is read
 back. A run computes only the panels no earlier run did (a set still being labelled grows).
+The files may be deleted at any time (the next run computes them again); an edit of the code
+starts new ones, and a file that cannot be read is ignored (and replaced).
 """
 from __future__ import annotations
 
@@ -13,6 +15,8 @@ import hashlib
 import inspect
 import json
 import os
+import tempfile
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +26,12 @@ from prbdm.surrogate import features as features_module
 from prbdm.truth import modes as modes_module
 from prbdm.truth import planform_ritz
 
-# the code that computes the columns, read once, as it was when it was imported (the source read
-# again later would be another one's after an edit during a run)
+# the code that computes the columns, as imported (an edit during a run does not change this
+# run's key): the Ritz plate, the spectrum, the features' call and the batch's nondimensional
+# planform (BeamBatch.from_arrays: x / L, padded stations)
 _CODE = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__).read_bytes()
-         + inspect.getsource(features_module.ritz_log_omega).encode())
+         + inspect.getsource(features_module.ritz_log_omega).encode()
+         + inspect.getsource(BeamBatch.from_arrays).encode())
 
 
 def _key(spec: dict, modes: int) -> str:
@@ -53,15 +59,22 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.n
     index, digest = table["index"].to_numpy().astype(np.int64), _digests(table)
     out = np.full((len(table), modes), np.nan)
     kept_index = np.zeros(0, np.int64)
-    if path.exists():
+    hit = np.zeros(len(index), bool)
+    if len(np.unique(index)) != len(index):
+        raise ValueError("ritz_columns: a table with repeated indices")
+    try:
         with np.load(path) as kept:
             kept_index, kept_digest, kept_cols = kept["index"], kept["digest"], kept["columns"]
-        pos = np.clip(np.searchsorted(kept_index, index), 0, max(len(kept_index) - 1, 0))
-        hit = ((kept_index[pos] == index) & (kept_digest[pos] == digest) if len(kept_index)
-               else np.zeros(len(index), bool))
-        out[hit] = kept_cols[pos[hit]]
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        log(f"  {path.name} unreadable ({type(exc).__name__}): computed again")
+        kept_index = np.zeros(0, np.int64)
     else:
-        hit = np.zeros(len(index), bool)
+        if len(kept_index):
+            pos = np.clip(np.searchsorted(kept_index, index), 0, len(kept_index) - 1)
+            hit = (kept_index[pos] == index) & (kept_digest[pos] == digest)
+            out[hit] = kept_cols[pos[hit]]
     todo = np.flatnonzero(~hit)
     log(f"  Ritz columns of {spec['beam'].get('family', 'paper')} panels, seed {spec['seed']}: "
         f"{int(hit.sum())} kept in {path.name}, {len(todo)} to compute")
@@ -78,7 +91,11 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.n
             cols = out
         order = np.argsort(index, kind="stable")
         path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(path.name + ".partial.npz")
-        np.savez(partial, index=index[order], digest=digest[order], columns=cols[order])
-        os.replace(partial, path)
+        fd, partial = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".partial.npz")
+        try:
+            with os.fdopen(fd, "wb") as f:     # another run may write the same set: its own file
+                np.savez(f, index=index[order], digest=digest[order], columns=cols[order])
+            os.replace(partial, path)
+        finally:
+            Path(partial).unlink(missing_ok=True)
     return out

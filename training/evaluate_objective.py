@@ -89,7 +89,8 @@ for path in [p for p in cfg["checkpoints"].split(",") if p]:
         rows[-1]["direct_p95_per_mode"] = np.percentile(direct, 95, 0).round(4).tolist()
 
 fit_median = rows[0]["worst_median"]
-#: a fits' median below this (in %) is exact: the ratios to it are shown as 'exact' (None)
+#: fits whose median error (in %) is below this are exact: a ratio to them means nothing and is
+#: shown as 'exact' (None in the JSON)
 EXACT = 1e-6
 print(f"{B} held-out beams of {cfg['data']} (seed {spec['seed']}), n = {spec['joints']}, "
       f"{r} modes, {spec['poses']} poses, {spec['truth']} truth; {int(refused.sum())} left out, "

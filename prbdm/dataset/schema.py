@@ -63,7 +63,8 @@ def make_spec(joints: int, modes: int | None = None, truth: str = "beam", law: s
     are null). That is all the surrogate's physics training needs, at about 1/100 of the cost.
     ``max_half_width``: the generator's bound on the half-widths [m], a number (the paper's 0.5 L
     when None) or a pair (lo, hi): each beam's bound drawn log-uniformly between them
-    (:func:`prbdm.geometry.random_beam`). ``fit_batch``: beams per batched fit; ``objective``:
+    (:func:`prbdm.geometry.random_beam`). ``thickness``: its thickness bounds (lo, hi) [m] (the
+    paper's 0.01, 0.05 when None). ``fit_batch``: beams per batched fit; ``objective``:
     what the fit minimises (one of
     :data:`OBJECTIVES`). For both, None (the key is then absent) means the folder's value for an
     existing set (1 and ``eigenvalue`` if it has none) and :data:`DEFAULT_FIT_BATCH` and

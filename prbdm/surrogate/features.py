@@ -231,10 +231,11 @@ def width_profile(x, w, points: int) -> np.ndarray:
     return np.log(np.maximum(wq / w.max(axis=-1, keepdims=True), PROFILE_FLOOR))
 
 
-def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(), ritz=None) -> np.ndarray:
+def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(),
+             ritz_columns=None) -> np.ndarray:
     """(B, F) features of the planforms (see the module docstring; names: :func:`feature_names`).
-    ``ritz``: :func:`ritz_log_omega` of the batch where it was computed before (training keeps
-    it, the costly part), else it is computed here.
+    ``ritz_columns``: :func:`ritz_log_omega` of the batch where it was computed before (training
+    keeps it, the costly part: training/_ritz_cache.py), else it is computed here.
 
     Invariant to scaling all half-widths, the thickness, the length, E and rho (beam truth);
     the plate truth adds ``log_aspect`` and ``nu``, and ``spread`` ``log_omega_spread``, which
@@ -242,7 +243,8 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(), ritz=None) -> 
     """
     if len(batch) > CHUNK:      # the Ritz arrays are (B, 95, 8): bounded pieces
         return np.concatenate([features(batch.take(slice(i, i + CHUNK)), spec,
-                                        None if ritz is None else ritz[i:i + CHUNK])
+                                        None if ritz_columns is None
+                                        else ritz_columns[i:i + CHUNK])
                                for i in range(0, len(batch), CHUNK)])
     wmax = batch.w.max(axis=-1)
     wn = batch.w / wmax[:, None]
@@ -271,9 +273,10 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(), ritz=None) -> 
             # its own): where a neck cuts the load path
             cols.append(width_profile(xs, ws, spec.profile) + np.log(ws.max(-1) / wmax)[:, None])
     if spec.ritz:
-        est = ritz_log_omega(batch, spec.rfe_modes) if ritz is None else np.asarray(ritz)
+        est = (ritz_log_omega(batch, spec.rfe_modes) if ritz_columns is None
+               else np.asarray(ritz_columns))
         if est.shape != (len(batch), spec.rfe_modes):
-            raise ValueError(f"ritz: expected ({len(batch)}, {spec.rfe_modes}), got {est.shape}")
+            raise ValueError(f"ritz_columns: expected ({len(batch)}, {spec.rfe_modes}), got {est.shape}")
         cols.append(est)
     return np.concatenate(cols, axis=1)
 
