@@ -528,3 +528,36 @@ def test_retest_measures_a_fresh_checkpoint_alike(tmp_path, tiny_data):
         _one_line_exit_2(script("retest.py", "--checkpoint", bad), *words)
         assert listing(tmp_path) == before
 
+
+
+def test_partial_sets_teach_their_known_modes_only(tmp_path, tiny_data):
+    """--partial PATH:K: a set whose first K truth modes alone are the target (a section-rule
+    set's modes 1-2 are the spectrum's) adds its training panels that are in no --data set to
+    the frequency head's term; its test and validation panels and its duplicates are left out,
+    the test split stays the --data sets', retest skips it, and bad input is one line."""
+    more = tmp_path / "more"       # the same stream, 30 panels: 20 are tiny_data's own
+    D.generate(more, 30, D.make_spec(joints=2, starts=0, seed=5), workers=0, progress="none")
+    out = tmp_path / "p.safetensors"
+    for args, words in (((f"{more}",), ["--partial", "PATH:K"]),
+                        ((f"{more}:0",), ["--partial", "K >= 1"]),
+                        ((f"{tiny_data}:1",), ["--partial", "in --data as well"]),
+                        ((f"{more}:9",), ["--partial", "K = 9"])):
+        run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--partial",
+                     *args, *TINY_NET, cwd=tmp_path)
+        _one_line_exit_2(run, *words)
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--partial",
+                 f"{more}:1", "--modes", "label,physics", cwd=tmp_path)
+    _one_line_exit_2(run, "--partial", "physics mode only")
+    assert not out.exists()
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--partial",
+                 f"{more}:1", "--device", "cpu", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    meta = read_checkpoint(out)[1]["dataset"]
+    part = meta["sets"][1]
+    # indices 20..29 are new; of them 20..27 are in the training split
+    assert part["partial_modes"] == 1 and part["rows_used"] == 8
+    assert meta["split"]["partial_training"] == 8 and meta["split"]["test"] == 2
+    assert meta["size"] == 28
+    run = script("retest.py", "--checkpoint", out)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "recorded test reproduced (2 beams" in run.stdout

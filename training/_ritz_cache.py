@@ -26,6 +26,8 @@ from prbdm.surrogate import features as features_module
 from prbdm.truth import modes as modes_module
 from prbdm.truth import planform_ritz
 
+from _sets import panel_digests
+
 # the code that computes the columns, as imported (an edit during a run does not change this
 # run's key): the Ritz plate, the spectrum, the features' call and the batch's nondimensional
 # planform (BeamBatch.from_arrays: x / L, padded stations)
@@ -39,24 +41,12 @@ def _key(spec: dict, modes: int) -> str:
     return hashlib.sha256(head + _CODE).hexdigest()[:24]
 
 
-def _digests(table) -> np.ndarray:
-    nu = table["nu"].to_numpy() if "nu" in table.columns else np.zeros(len(table))
-    out = np.empty(len(table), dtype=np.uint64)
-    for i, (x, w, t, v) in enumerate(zip(table["x"], table["half_width"],
-                                         table["thickness"].to_numpy(), nu)):
-        h = hashlib.blake2b(np.asarray(x, np.float64).tobytes()
-                            + np.asarray(w, np.float64).tobytes()
-                            + np.float64(t).tobytes() + np.float64(v).tobytes(), digest_size=8)
-        out[i] = np.frombuffer(h.digest(), dtype=np.uint64)[0]
-    return out
-
-
 def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.ndarray:
     """:func:`prbdm.surrogate.features.ritz_log_omega` of a data set's records ``table`` (pandas,
     with ``index``), its rows read from ``folder`` where an earlier run computed them and the
     rest computed now and added there."""
     path = Path(folder) / f"ritz-{_key(spec, modes)}.npz"
-    index, digest = table["index"].to_numpy().astype(np.int64), _digests(table)
+    index, digest = table["index"].to_numpy().astype(np.int64), panel_digests(table)
     out = np.full((len(table), modes), np.nan)
     kept_index = np.zeros(0, np.int64)
     hit = np.zeros(len(index), bool)

@@ -16,6 +16,45 @@ COLUMNS = ["index", "x", "half_width", "thickness", "length", "omega_truth", "ga
            "loss_percent", "fit_time_s", "gamma_spread"]
 
 
+def parse_partial(text: str, data_sets=()) -> list:
+    """``[(path, K), ...]`` of ``--partial`` (``PATH:K`` comma-separated: data sets of which the
+    first K truth modes alone are the target), each a data set folder not in ``data_sets``."""
+    from pathlib import Path
+
+    full = {Path(d).resolve() for d in data_sets}
+    out = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        path, _, k = item.rpartition(":")
+        if not path or not k.isdigit() or int(k) < 1:
+            raise SetError(f"each one PATH:K with K >= 1 (the modes known), got {item!r}")
+        if not Path(path, "_manifest.json").is_file():
+            raise SetError(f"{path!r} is not a data set folder (no _manifest.json)")
+        if Path(path).resolve() in full:
+            raise SetError(f"{path!r} is in --data as well")
+        out.append((path, int(k)))
+    return out
+
+
+def panel_digests(table):
+    """An 8-byte digest of each record's panel (x, half-width, thickness, Poisson's ratio): the
+    same panel in two data sets has the same digest."""
+    import hashlib
+
+    import numpy as np
+
+    nu = table["nu"].to_numpy() if "nu" in table.columns else np.zeros(len(table))
+    out = np.empty(len(table), dtype=np.uint64)
+    for i, (x, w, t, v) in enumerate(zip(table["x"], table["half_width"],
+                                         table["thickness"].to_numpy(), nu)):
+        h = hashlib.blake2b(np.asarray(x, np.float64).tobytes()
+                            + np.asarray(w, np.float64).tobytes()
+                            + np.float64(t).tobytes() + np.float64(v).tobytes(), digest_size=8)
+        out[i] = np.frombuffer(h.digest(), dtype=np.uint64)[0]
+    return out
+
+
 class SetError(ValueError):
     """A data set that cannot be read or holds no records to use: the message names it."""
 
@@ -90,6 +129,37 @@ def read_set(path, max_index: int = -1, columns=COLUMNS, refuse: bool = True, ra
     return table, record
 
 
+#: what sets trained together must agree on (with the material): what defines their labels
+SAME_FIELDS = ("truth", "truth_modes", "joints", "modes", "law", "poses", "starts", "objective")
+
+
+def read_sets(paths, max_index: int = -1):
+    """(tables, records) of the data sets trained together (:func:`read_set` each): they must
+    agree on ``SAME_FIELDS`` and the material, and differ only in their random beams (seed,
+    generator bounds), e.g. the paper's wide panels and a narrower range."""
+    from prbdm import dataset as ds
+    from prbdm.dataset.schema import flatten
+
+    tables, records = [], []
+    for path in paths:
+        table, record = read_set(path, max_index)
+        spec = record["spec"]
+        if spec["law"] != "beam":
+            raise SetError(f"the surrogate supports the 'beam' law only, {path} has "
+                           f"{spec['law']!r}")
+        if records:
+            a = flatten({"objective": ds.DEFAULT_OBJECTIVE, **records[0]["spec"]})
+            b = flatten({"objective": ds.DEFAULT_OBJECTIVE, **spec})
+            for f in SAME_FIELDS + tuple(k for k in a if k.startswith("beam.material.")):
+                if a.get(f) != b.get(f):
+                    raise SetError(f"{path} differs from {paths[0]} in {f} ({b.get(f)!r} vs "
+                                   f"{a.get(f)!r}); sets trained together must agree on "
+                                   f"{', '.join(SAME_FIELDS)}, material")
+        tables.append(table)
+        records.append(record)
+    return tables, records
+
+
 def split(index) -> dict:
     """Row positions of the test (``index % 10 == 9``), validation (``== 8``) and training (the
     rest) beams, from the records' ``index``: a beam's split depends on its index alone, so
@@ -99,3 +169,25 @@ def split(index) -> dict:
     index = np.asarray(index)
     return {"test": np.flatnonzero(index % 10 == 9), "val": np.flatnonzero(index % 10 == 8),
             "train": np.flatnonzero(index % 10 < 8)}
+
+
+def read_partial(path, modes_known: int, spec: dict, seen, modes: int):
+    """(table, record) of a partial set (``--partial PATH:K``): its training-split records whose
+    panel is not among ``seen`` (digests of the full sets' panels), ``omega_truth`` padded to
+    ``modes`` with NaN past the first K. ``spec``: the full sets' (same truth and material)."""
+    import numpy as np
+
+    table, record = read_set(path)
+    other = record["spec"]
+    if other["truth"] != spec["truth"] or other["beam"]["material"] != spec["beam"]["material"]:
+        raise SetError(f"{path} differs from the --data sets in its truth or material")
+    if modes_known > min(other["truth_modes"], modes):
+        raise SetError(f"{path} holds {other['truth_modes']} truth modes, {modes} are trained; "
+                       f"K = {modes_known} must be at most both")
+    keep = (table["index"].to_numpy() % 10 < 8) & ~np.isin(panel_digests(table), seen)
+    table = table[keep].reset_index(drop=True)
+    table["omega_truth"] = [np.r_[np.asarray(o, float)[:modes_known],
+                                  np.full(modes - modes_known, np.nan)]
+                            for o in table["omega_truth"]]
+    return table, {**record, "partial_modes": int(modes_known), "rows_used": len(table),
+                   "rows_used_are": "the training split's panels that are in no --data set"}

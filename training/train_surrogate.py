@@ -116,6 +116,11 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
+    "partial": S("", "data sets of which the first K truth modes alone are the target, "
+                     "PATH:K comma-separated (e.g. a section-rule set: its modes 1-2 are the "
+                     "bending spectrum's): their training panels teach the frequency head those "
+                     "K modes, no PRBDM loss; panels also in --data are left out (physics mode, "
+                     "truth-only sets)"),
     "init_from": S("", "checkpoint to start from (fine-tuning): member j starts as its member j "
                        "mod M; its network and feature settings must be these; the features it "
                        "lacks start with zero weight, and its normalisation is kept, so that "
@@ -162,6 +167,13 @@ for _d in data_sets:
               f"`prbdm dataset generate`")
 if not data_sets or len({Path(d).resolve() for d in data_sets}) != len(data_sets):
     _fail(f"--data: one or more distinct data set folders, comma-separated, got {data!r}")
+try:
+    partial_sets = _sets.parse_partial(partial, data_sets)
+except _sets.SetError as exc:
+    _fail(f"--partial: {exc}")
+if partial_sets and set(run_modes) != {"physics"}:
+    _fail(f"--partial: trains the physics mode only (the sets' fitted labels are not this "
+          f"target's), got --modes {modes!r}")
 
 import _ritz_cache
 import torch  # after the configuration, as in nanoGPT (E402 is off for this file)
@@ -171,7 +183,6 @@ from prbdm import model, objectives
 from prbdm import surrogate as sg
 from prbdm.chain import BeamBatch, uniform_gamma
 from prbdm.constants import GAMMA_MIN
-from prbdm.dataset.schema import flatten
 from prbdm.surrogate.checkpoint import member_prefixes, save_checkpoint
 from prbdm.surrogate.decode import candidate_losses, gauss_select_poses
 from prbdm.surrogate.features import PROFILE_FLOOR, FeatureSpec, feature_names, features
@@ -190,35 +201,32 @@ torch.set_num_threads(threads)
 
 # ------------------------------------------------------------------------------- 1. data
 # several sets (``--data A,B``) train one network when they agree on everything that defines
-# the labels (truth, joints, modes, law, poses, fit, material) and differ only in their random
-# beams (seed, generator bounds): e.g. the paper's wide panels and a narrower range
-SAME_FIELDS = ("truth", "truth_modes", "joints", "modes", "law", "poses", "starts", "objective")
-sets, tables = [], []
-for _d in data_sets:
-    try:
-        _t, _record = _sets.read_set(_d, max_index)
-    except _sets.SetError as exc:
-        _fail(f"--data: {exc}")
-    _spec = _record["spec"]
-    if _spec["law"] != "beam":
-        _fail(f"--data: the surrogate supports the 'beam' law only, {_d} has {_spec['law']!r}")
-    if sets:
-        _a = flatten({"objective": ds.DEFAULT_OBJECTIVE, **sets[0]["spec"]})
-        _b = flatten({"objective": ds.DEFAULT_OBJECTIVE, **_spec})
-        for _f in SAME_FIELDS + tuple(k for k in _a if k.startswith("beam.material.")):
-            if _a.get(_f) != _b.get(_f):
-                _fail(f"--data: {_d} differs from {data_sets[0]} in {_f} ({_b.get(_f)!r} vs "
-                      f"{_a.get(_f)!r}); sets trained together must agree on "
-                      f"{', '.join(SAME_FIELDS)}, material")
-    sets.append(_record)
-    tables.append(_t)
+# the labels and differ only in their random beams (training/_sets.py read_sets)
+try:
+    tables, sets = _sets.read_sets(data_sets, max_index)
+except _sets.SetError as exc:
+    _fail(f"--data: {exc}")
 import pandas as pd
 
 manifest, spec = ds.read_manifest(data_sets[0]), sets[0]["spec"]
-table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
-records_read = sum(s_["records_ok_read"] for s_ in sets)
 if max_index < 0 or len(sets) == 1:
     max_index = sets[0]["max_index"]          # capped at a growing set's labelling front
+# partial sets (--partial): their training panels, less those in --data, with the truth modes
+# past their first K unknown (NaN); they teach the frequency head those K modes only
+_R_all = len(tables[0]["omega_truth"].iloc[0])
+_seen = np.concatenate([_sets.panel_digests(t_) for t_ in tables])
+for _d, _k in partial_sets:
+    try:
+        _t, _record = _sets.read_partial(_d, _k, spec, _seen, _R_all)
+    except _sets.SetError as exc:
+        _fail(f"--partial: {exc}")
+    sets.append(_record)
+    tables.append(_t)
+known = np.concatenate([np.ones((len(t_), _R_all), bool) if "partial_modes" not in s_ else
+                        np.arange(_R_all)[None, :].repeat(len(t_), 0) < s_["partial_modes"]
+                        for t_, s_ in zip(tables, sets)])
+table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
+records_read = sum(s_["records_ok_read"] for s_ in sets)
 N = len(table)
 # a truth-only set's records do not depend on the joints (no fit): it trains any n whose r
 # modes and n + 1 truth modes it holds; a labelled set only its own
@@ -345,20 +353,26 @@ else:
 y_corr = log_omega_hat - feats[:, base]
 for s_ in sets[1:]:
     gen = s_["spec"]["beam"]
-    log(f"  with {s_['path']}: {s_['size']} records (index <= {s_['max_index']}), "
-        f"{gen.get('family', 'paper')} panels"
+    log(f"  with {s_['path']}: {s_.get('rows_used', s_['size'])} records (index <= "
+        f"{s_['max_index']}), {gen.get('family', 'paper')} panels"
         + (f", max half-width {json.dumps(gen['max_half_width'])} m" if "max_half_width" in gen
-           else "") + f", seed {s_['spec']['seed']}")
+           else "") + f", seed {s_['spec']['seed']}"
+        + (f"; partial: truth modes 1-{s_['partial_modes']} only, training panels in no --data "
+           f"set" if "partial_modes" in s_ else ""))
 log(f"data {data}: {records_read} ok records, {N} with index <= {max_index} and accepted by "
     f"today's truth ({sum(s_['refused_by_truth'] for s_ in sets)} refused); n = {n}, "
     f"r = {r}, m = {m} poses, {R} truth modes, {len(names)} features; "
     f"{'fitted labels' if labelled else 'truth only (no fitted labels)'}; sha256 {sha[:16]}")
 
 # ------------------------------------------------------------------------------- 2. split
-split = _sets.split(table["index"].to_numpy())
-log("split " + ", ".join(f"{k} {len(v)}" for k, v in split.items()))
+complete = known[:, :R].all(1)          # every trained mode known: not a partial set's row
+split = {k: v[complete[v]] for k, v in _sets.split(table["index"].to_numpy()).items()}
+partial_rows = np.flatnonzero(~complete)  # training panels only (kept so when read)
+log("split " + ", ".join(f"{k} {len(v)}" for k, v in split.items())
+    + (f", and {len(partial_rows)} training panels of partial sets" if len(partial_rows) else ""))
 tr = split["train"]
-f_mean, f_std = feats[tr].mean(0), np.maximum(feats[tr].std(0), 1e-6)
+tr_all = np.concatenate([tr, partial_rows])             # every panel the network learns from
+f_mean, f_std = feats[tr_all].mean(0), np.maximum(feats[tr_all].std(0), 1e-6)
 norm_np = {"feature_mean": f_mean, "feature_std": f_std,
            "logk_mean": y_logk[tr].mean(0), "logk_std": np.maximum(y_logk[tr].std(0), 1e-6),
            "freq_mean": y_corr[tr].mean(0), "freq_std": np.maximum(y_corr[tr].std(0), 1e-6),
@@ -385,7 +399,9 @@ norm = {k: torch.as_tensor(v, dtype=torch.float32, device=dev) for k, v in norm_
 F = torch.as_tensor((feats - f_mean) / f_std, dtype=torch.float32, device=dev)
 Yg = torch.as_tensor(y_gamma, dtype=torch.float32, device=dev)
 Yk = torch.as_tensor(y_logk, dtype=torch.float32, device=dev)
-Yc = torch.as_tensor(y_corr, dtype=torch.float32, device=dev)
+Yc = torch.as_tensor(np.nan_to_num(y_corr), dtype=torch.float32, device=dev)
+KNOWN = torch.as_tensor(known[:, :R], dtype=torch.float32, device=dev)
+FREQ_OUT = slice(hypotheses * (n + 1) + m, None)     # the frequency head (surrogate.decode)
 RFE = torch.as_tensor(feats[:, base], dtype=torch.float32, device=dev)
 BX = torch.as_tensor(batch.x, device=dev)
 BW = torch.as_tensor(batch.w, device=dev)
@@ -448,13 +464,22 @@ def vp_loss(rows, d):
     return wta(loss)
 
 
-def label_terms(rows, d):
+def label_terms(rows, d, net=None, partial=None):
+    """The label terms of ``rows`` (gamma, log k, frequency correction); with ``partial``
+    (rows of partial sets) their known modes join the frequency term, through ``net``'s
+    frequency head alone (they have no PRBDM term)."""
     ga = d["gamma_all"]
     lg = wta((((ga - Yg[rows][:, None]) / norm["gamma_std"]) ** 2).mean(-1)).mean()
     lk = (((d["logk"].float() - Yk[rows]) / norm["logk_std"]) ** 2).mean()
     dc = (d["corr"] - Yc[rows]) / norm["freq_std"]
-    lc = (dc ** 2).mean() if freq_loss == "mse" else dc.abs().mean()
-    return lg, lk, lc
+    if partial is None or not len(partial):
+        lc = (dc ** 2).mean() if freq_loss == "mse" else dc.abs().mean()
+        return lg, lk, lc
+    corr_p = net(F[partial])[:, FREQ_OUT] * norm["freq_std"] + norm["freq_mean"]
+    dp = (corr_p - Yc[partial]) / norm["freq_std"]
+    power = 2 if freq_loss == "mse" else 1
+    total = (dc.abs() ** power).sum() + (dp.abs() ** power * KNOWN[partial]).sum()
+    return lg, lk, total / (dc.numel() + KNOWN[partial].sum())
 
 
 @torch.no_grad()
@@ -531,6 +556,7 @@ def train(mode, member=0):
         sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
     gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
+    partial_train = torch.as_tensor(partial_rows)
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
     if init_meta is not None:
         # where the start stands on this run's truth; it is epoch 0, kept if no epoch beats it
@@ -545,11 +571,16 @@ def train(mode, member=0):
     for epoch in range(1, max_epochs + 1):
         # the order is drawn on the CPU, so that it is the same on every device
         perm = train_rows[torch.randperm(len(train_rows), generator=gen)].to(dev)
+        # the partial sets' panels spread over the same batches
+        pperm = partial_train[torch.randperm(len(partial_train), generator=gen)].to(dev)
+        steps = -(-len(perm) // batch_size)
         tot = 0.0
         for i in range(0, len(perm), batch_size):
             rows = perm[i:i + batch_size]
+            j = i // batch_size
+            prow = pperm[j * len(pperm) // steps:(j + 1) * len(pperm) // steps]
             d = outputs(net, rows)
-            lg, lk, lc = label_terms(rows, d)
+            lg, lk, lc = label_terms(rows, d, net, prow)
             if mode in ("physics", "combined"):
                 phys = (transform(physics_loss(rows, d["gamma"], d["logk"], d["mu"])).mean()
                         + vp_weight * transform(vp_loss(rows, d)).mean()).float()
@@ -654,7 +685,7 @@ meta = {
     # trained at rest: the chain's stiffness is held at every pose (prbdm.pose_target)
     "pose_target": "shape" if pose_spec == "linear" else "straight",
     "features": {"spec": fspec.to_dict(), "names": names,
-                 "min": feats[tr].min(0).tolist(), "max": feats[tr].max(0).tolist(),
+                 "min": feats[tr_all].min(0).tolist(), "max": feats[tr_all].max(0).tolist(),
                  "ood_margin": OOD_MARGIN,
                  "invariances": "beam truth + beam law: gamma, k and omega / sqrt(E t^2 / (rho "
                                 "L^4)) depend only on w(x)/max(w) on x/L; features use only "
@@ -685,7 +716,9 @@ meta = {
                              "(prbdm.surrogate.checkpoint.dataset_hash)",
                 "dataset_git_commit": manifest.get("git_commit"),
                 "split": {"rule": "index % 10 == 9 test, == 8 validation, else training",
-                          **{k: int(len(v)) for k, v in split.items()}},
+                          **{k: int(len(v)) for k, v in split.items()},
+                          **({"partial_training": int(len(partial_rows))} if len(partial_rows)
+                             else {})},
                 **({"sets": sets, "sha256_of_sets": "sha256 of the sets' sha256 (hex) joined "
                     "in order"} if len(sets) > 1 else
                    {"index_ranges": sets[0]["index_ranges"]})},
