@@ -517,7 +517,8 @@ def test_truth_auto_picks_a_plate_network_for_a_wide_panel_or_says_it_has_none(
     rc, out, err = run(capsys, "predict", wide, "--joints", 2, "--json")
     r = json.loads(out)
     assert rc == 0 and r["truth"] == "beam" and "faithful truth is the plate" in err
-    assert "--truth plate" in r["warnings"][-1] and "no plate network for 2 joints" in err
+    assert "--truth plate" in r["warnings"][-1]
+    assert "no plate or mindlin network for 2 joints" in err
     # a plate network in the folder is taken for the wide panel (a copy: its metadata still says
     # beam, so the answer names that too)
     shutil.copy(tiny_checkpoint(tiny_set), folder / "plate-n2.safetensors")
@@ -941,3 +942,25 @@ def test_a_declined_mindlin_network_is_a_warning_not_only_a_reason():
     assert warning is not None and declined in warning and "--truth mindlin" in warning
     reason, warning = truth_reason(panel, plate_net, None, choice, None)
     assert warning is None and "no mindlin network for 4 joints" in reason
+
+
+def test_a_thin_aluminium_panel_gets_the_mindlin_network_not_the_beams(capsys, beam_file):
+    """A panel whose truth is the Kirchhoff plate (thin, wide) but whose Poisson's ratio the
+    Kirchhoff network never saw (0.33: it knows 0.28) is answered by the Mindlin plate's network,
+    the same physics in its thin limit, not by the beam network: a 3 mm aluminium panel 0.6 m
+    long and 0.3 L wide (the beam network answered it 2 % off the plate on mode 1). The
+    answer's truth frequencies against the Kirchhoff plate's own, computed here."""
+    from prbdm.geometry import Beam
+    from prbdm.truth import bending_frequencies
+
+    data = {"x": [0.0, 0.6], "half_width": [0.09, 0.09], "thickness": 0.0012,
+            "material": {"E": 70e9, "rho": 2700.0, "nu": 0.33}}
+    rc, out, err = run(capsys, "predict", beam_file(data), "--joints", 4, "--json")
+    assert rc == 0, err
+    r = json.loads(out)
+    assert r["checkpoint"]["truth"] == "mindlin" and r["warnings"] == []
+    assert "plate-n4.safetensors cannot answer this panel" in r["truth_reason"]
+    assert "the Kirchhoff plate is its thin limit" in r["truth_reason"]
+    plate = bending_frequencies(Beam.from_dict(data), "plate", modes=4).omega / (2 * np.pi)
+    predicted = np.asarray(r["freq_hz_truth_predicted"][:4])
+    assert np.max(np.abs(predicted / plate - 1)) < 0.01

@@ -127,5 +127,5 @@ def test_a_mindlin_panel_without_a_plate_network_names_the_shear_deformable_plat
     assert choice[0] == "mindlin"
     sur = SimpleNamespace(name="beam-n4.safetensors", truth="beam", joints=4)
     reason, warning = truth_reason(wide, sur, None, choice)
-    assert "Mindlin" in reason and "no plate network for 4 joints" in warning
+    assert "Mindlin" in reason and "no mindlin or plate network for 4 joints" in warning
     assert "shear-deformable (mindlin) plate" in warning and "--truth mindlin" in warning

@@ -5,7 +5,8 @@ Four ways to get the PRBDM of one beam, side by side:
 - ``truth``: the truth frequencies (``--truth``, FEM; what the others are measured against; by
   default ``auto`` as in ``prbdm predict``: the plate for a panel wider than 0.05 L (the Mindlin
   plate for a thick or necked one), with that truth's network when the panel is wider than 0.1 L
-  and one is found that can answer it, else the next (Mindlin, Kirchhoff plate, beam) measured
+  and one is found that can answer it, else the next (Mindlin, Kirchhoff plate, beam; for a thin
+  panel Kirchhoff plate, Mindlin, beam) measured
   against that truth (the beam's on purpose up to 0.1 L, said in ``truth.reason``; otherwise said
   in ``warnings``);
 - ``network``: the surrogate's PRBDM (:mod:`prbdm.surrogate`, no FEM), and ``network (direct)``:

@@ -50,7 +50,8 @@ def add_arguments(parser):
                         help="truth model the network was trained on (default auto: for a "
                              "panel wider than 0.1 L the network of the truth it needs, the "
                              "Mindlin plate's (thick or necked) or the Kirchhoff plate's, when "
-                             "one is found and covers it, else the next: Mindlin, plate, beam; "
+                             "one is found and covers it, else the next: Mindlin, plate, beam "
+                             "(plate, Mindlin, beam for a thin one); "
                              "the beam's for a strip, and on plate panels 0.05-0.1 L wide, "
                              "where its PRBDM is the closer to the plate; with --checkpoint, "
                              "the checkpoint's)")

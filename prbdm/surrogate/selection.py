@@ -5,11 +5,13 @@
 :class:`Request` (joints, truth or auto, checkpoint, objective, allow_extrapolation) and picks
 the first network: for ``--truth auto`` the truth the panel needs
 (:func:`prbdm.truth.choice.choose_truth`) and, where that truth's network is shipped
-(:func:`network_truths`: a Mindlin panel a Mindlin network, else the Kirchhoff plate's), that
-network; the beam network otherwise. The caller checks the beam against the limits of the truth
+(:func:`network_truths`: a Mindlin panel a Mindlin network, else the Kirchhoff plate's; a
+Kirchhoff plate panel the Kirchhoff plate's, else the Mindlin plate's), that network; the beam
+network otherwise. The caller checks the beam against the limits of the truth
 it answers for (:attr:`Plan.model`) and then :func:`answer` asks the network, falls back to the
 next one where the chosen network cannot answer this panel (outside its training range, a
-feature it never saw vary, an implausible answer): Mindlin -> Kirchhoff plate -> beam, a plate
+feature it never saw vary, an implausible answer): Mindlin -> Kirchhoff plate -> beam and
+Kirchhoff plate -> Mindlin -> beam, a plate
 panel no wider than PLATE_NETWORK_MIN_WIDTH going to the beam network on purpose
 (:data:`NARROW_PLATE`); and says why (``reason``) and what the answer leaves out (``warnings``:
 the shear caveat of the network's physics, the wrong-physics warning of a network other than the
@@ -154,8 +156,10 @@ def auto_choice(beam, request: Request) -> tuple[str, str] | None:
 def network_truths(model: str) -> tuple[str, ...]:
     """The networks that may answer a panel of truth ``model``, in order: a Mindlin panel a
     Mindlin network when one is found, else the Kirchhoff plate's, the nearest physics (the shear
-    caveat says how near)."""
-    return ("mindlin", "plate") if model == "mindlin" else (model,)
+    caveat says how near); a Kirchhoff plate panel the Kirchhoff plate's, else the Mindlin
+    plate's, the same physics in its thin limit (its networks learned t/L down to 0.002 and
+    Poisson's ratios 0.2-0.45, where the Kirchhoff networks know 0.28 alone)."""
+    return {"mindlin": ("mindlin", "plate"), "plate": ("plate", "mindlin")}.get(model, (model,))
 
 
 def network_truth(request: Request, choice) -> str | None:
@@ -186,7 +190,8 @@ def answer_or_fall_back(plan: Plan, answer, beam, check_beam=None):
     (``plan.chosen``); when this panel lies outside that network's training range, or the
     network refuses it (BadInput: a feature it never saw vary, such as nu, or an implausible
     answer), the next network's answer instead (for a Mindlin network the Kirchhoff plate's,
-    the nearer physics, then the beam's), with ``declined`` saying why: an extrapolating plate
+    the nearer physics, for a Kirchhoff plate network the Mindlin plate's, then the beam's),
+    with ``declined`` saying why: an extrapolating plate
     network was measured worse than the beam network (the earlier plate-n4, commit e6a900f,
     trained on 0.4-1 L wide panels only, on the 0.05-0.1 L panels of
     datasets/plate-n4-narrow-seed3: loss 5.9 % against beam-n4's 0.40 %).
@@ -316,9 +321,15 @@ def truth_reason(beam, sur, asked, choice, declined=None,
                     f"use `prbdm fit BEAM --joints {sur.joints} --truth mindlin`")
         return (f"{why}; checkpoint {sur.name}, a Kirchhoff-plate network: no mindlin network "
                 f"for {sur.joints} joints is shipped"), None
+    if model == "plate" and sur.truth == "mindlin":
+        # the Mindlin plate holds the Kirchhoff plate as its thin limit: no physics is lost
+        return (f"{why}; " + (f"{declined}, so" if declined else
+                              f"no plate network for {sur.joints} joints is shipped, so")
+                + f" the Mindlin plate's network {sur.name} answers (the Kirchhoff plate is its "
+                  "thin limit)"), None
     if declined == NARROW_PLATE:
         return f"{why}; {narrow_plate_reason(sur)}", None
-    net_model = network_truths(model)[-1]
+    net_model = " or ".join(network_truths(model))
     label = "shear-deformable (mindlin) plate" if model == "mindlin" else model
     missing = declined or (f"--checkpoint {sur.name} was given" if given
                            else f"no {net_model} network for {sur.joints} joints is shipped")
