@@ -804,3 +804,17 @@ def test_the_physics_chooses_a_plausible_candidate():
             loss_rule = pred
     assert rates["loss"] > 0.2 and rates["plausible"] <= 0.075
     assert loss_rule.implausible[1] and not pred.implausible[1]
+
+
+def test_silu_is_quiet_and_exact_far_below_zero():
+    """The NumPy network's activation at large negative pre-activations (panels far outside the
+    training range reach them): -0 (the limit), finite, and no overflow warning on stderr."""
+    from prbdm.surrogate.decode import silu
+
+    v = np.array([-1e4, -800.0, -30.0, 0.0, 30.0, 800.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = silu(v)
+    assert np.all(np.isfinite(out))
+    assert out[0] == 0.0 and out[1] == 0.0 and out[3] == 0.0 and out[5] == 800.0
+    assert out[2] == pytest.approx(-30.0 / (1.0 + np.exp(30.0)), rel=1e-12)

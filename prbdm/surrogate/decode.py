@@ -20,7 +20,10 @@ from ..constants import GAMMA_MAX, GAMMA_MIN  # noqa: E402,F401  (GAMMA_MAX re-e
 
 
 def silu(v):
-    return v / (1.0 + np.exp(-v))
+    """``v sigmoid(v)``; below v = -709 ``exp(-v)`` overflows to inf and the quotient is -0, the
+    exact limit, so that overflow is not reported."""
+    with np.errstate(over="ignore"):
+        return v / (1.0 + np.exp(-v))
 
 
 def gamma_from_logits_np(logits, g_min: float = GAMMA_MIN):
