@@ -561,3 +561,11 @@ def test_partial_sets_teach_their_known_modes_only(tmp_path, tiny_data):
     run = script("retest.py", "--checkpoint", out)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "recorded test reproduced (2 beams" in run.stdout
+    # the neighbour reference draws from the panels the network learned from: the partial set's
+    # 8 with the --data set's 16 training panels (two test panels are too few to place its
+    # limit: one line, nothing written)
+    before = out.read_bytes()
+    run = script("add_neighbours.py", "--checkpoint", out, "--count", 4, "--write", 1)
+    assert "training split 24 panels" in run.stdout, run.stdout + run.stderr[-2000:]
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert "too few" in run.stderr and out.read_bytes() == before
