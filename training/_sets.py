@@ -171,6 +171,15 @@ def split(index) -> dict:
             "train": np.flatnonzero(index % 10 < 8)}
 
 
+def partial_rows(table, seen):
+    """The records of a partial set a network learns from: its training split's, less the panels
+    among ``seen`` (digests of the full sets' panels)."""
+    import numpy as np
+
+    keep = (table["index"].to_numpy() % 10 < 8) & ~np.isin(panel_digests(table), seen)
+    return table[keep].reset_index(drop=True)
+
+
 def read_partial(path, modes_known: int, spec: dict, seen, modes: int):
     """(table, record) of a partial set (``--partial PATH:K``): its training-split records whose
     panel is not among ``seen`` (digests of the full sets' panels), ``omega_truth`` padded to
@@ -184,8 +193,7 @@ def read_partial(path, modes_known: int, spec: dict, seen, modes: int):
     if modes_known > min(other["truth_modes"], modes):
         raise SetError(f"{path} holds {other['truth_modes']} truth modes, {modes} are trained; "
                        f"K = {modes_known} must be at most both")
-    keep = (table["index"].to_numpy() % 10 < 8) & ~np.isin(panel_digests(table), seen)
-    table = table[keep].reset_index(drop=True)
+    table = partial_rows(table, seen)
     table["omega_truth"] = [np.r_[np.asarray(o, float)[:modes_known],
                                   np.full(modes - modes_known, np.nan)]
                             for o in table["omega_truth"]]

@@ -116,16 +116,14 @@ for s in training_sets(meta):
               f"({time.perf_counter() - t0:.0f} s; the set recorded {s.get('size')})")
 # a partial set (train_surrogate.py --partial) gave its training-split panels that are in no
 # other set: those only
-_full = [t_ for t_, s_ in zip(tables, training_sets(meta)) if "partial_modes" not in s_]
+_seen = np.concatenate([_sets.panel_digests(t_) for t_, s_ in zip(tables, training_sets(meta))
+                        if "partial_modes" not in s_])
 for _j, _s in enumerate(training_sets(meta)):
     if "partial_modes" in _s:
-        _t = tables[_j]
-        _t = _t[(_t["index"].to_numpy() % 10 < 8) & ~np.isin(
-            _sets.panel_digests(_t), np.concatenate([_sets.panel_digests(f) for f in _full]))]
-        if "rows_used" in _s and len(_t) != _s["rows_used"]:
-            _fail(f"--checkpoint: {len(_t)} panels of the partial set {_s['path']}, "
+        tables[_j] = _sets.partial_rows(tables[_j], _seen)
+        if "rows_used" in _s and len(tables[_j]) != _s["rows_used"]:
+            _fail(f"--checkpoint: {len(tables[_j])} panels of the partial set {_s['path']}, "
                   f"{path.name} records {_s['rows_used']}")
-        tables[_j] = _t.reset_index(drop=True)
 table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
 split = _sets.split(table["index"].to_numpy())
 tr, te = split["train"], split["test"]

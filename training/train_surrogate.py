@@ -222,10 +222,8 @@ for _d, _k in partial_sets:
         _fail(f"--partial: {exc}")
     sets.append(_record)
     tables.append(_t)
-known = np.concatenate([np.ones((len(t_), _R_all), bool) if "partial_modes" not in s_ else
-                        np.arange(_R_all)[None, :].repeat(len(t_), 0) < s_["partial_modes"]
-                        for t_, s_ in zip(tables, sets)])
 table = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
+known = np.isfinite(np.stack(table["omega_truth"].to_numpy()))   # a partial set's NaN: unknown
 records_read = sum(s_["records_ok_read"] for s_ in sets)
 N = len(table)
 # a truth-only set's records do not depend on the joints (no fit): it trains any n whose r
