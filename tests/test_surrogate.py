@@ -491,13 +491,51 @@ def test_physics_training_on_a_truth_only_set(tmp_path):
     run = subprocess.run(common + ["--modes=physics,label"], capture_output=True, text=True,
                          cwd=REPO, timeout=300)
     assert run.returncode != 0 and "truth-only" in run.stderr
-    run = subprocess.run(common + ["--modes=physics"], capture_output=True, text=True, cwd=REPO,
-                         timeout=300)
+    # with a frequency trunk of its own (freq_width): stored as one block-diagonal MLP
+    run = subprocess.run(common + ["--modes=physics", "--freq_width=8", "--depth=2"],
+                         capture_output=True, text=True, cwd=REPO, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
     meta = json.loads(ckpt.with_suffix(".json").read_text())
     assert meta["dataset"]["spec"]["starts"] == 0 and meta["test"]["fit_loss_median"] is None
+    assert meta["network"]["freq_width"] == 8
+    tensors, _ = read_checkpoint(ckpt)
+    assert tensors["layers.0.weight"].shape[0] == 16 + 8
+    assert not tensors["layers.1.weight"][:16, 16:].any()     # no path between the trunks
+    assert not tensors["layers.1.weight"][16:, :16].any()
+    assert not tensors["layers.2.weight"][-3:, :16].any()     # the 3 frequencies: its own trunk
+    assert not tensors["layers.2.weight"][:-3, 16:].any()
     p = sg.load_checkpoint(ckpt).predict([random_beam(3, 100)], warn=False)
     assert np.all(p.k > 0) and abs(p.gamma.sum() - 1) < 1e-12
+
+
+def test_frequency_trunk_is_one_mlp_and_separate():
+    """freq_width > 0: the frequency outputs have a trunk of their own. The checkpoint's dense
+    MLP (what NumPy inference runs) equals the two trunks, loading it back gives the same network,
+    and no PRBDM output depends on the frequency trunk's weights, nor the frequencies on the
+    PRBDM trunk's."""
+    torch.manual_seed(0)
+    n, m, R = 3, 2, 5
+    net = SurrogateNet(11, n, m, R, width=9, depth=3, hypotheses=2, freq_width=6)
+    f = torch.randn(7, 11)
+    y = net(f)
+    w = net.weights()
+    h = f.double().numpy()
+    for i in range(4):
+        h = h @ w[f"layers.{i}.weight"].T.astype(np.float64) + w[f"layers.{i}.bias"]
+        h = h / (1 + np.exp(-h)) if i < 3 else h
+    np.testing.assert_allclose(h, y.detach().numpy(), atol=1e-5)
+    copy = SurrogateNet(11, n, m, R, width=9, depth=3, hypotheses=2, freq_width=6)
+    np.testing.assert_array_equal(copy.load_weights(w)(f).detach().numpy(), y.detach().numpy())
+    n_prbdm = 2 * (n + 1) + m
+    y[:, :n_prbdm].sum().backward()
+    assert all(p.grad is None or not p.grad.any() for p in net.freq_hidden.parameters())
+    assert net.hidden[0].weight.grad.abs().sum() > 0
+    net.zero_grad()
+    net(f)[:, n_prbdm:].sum().backward()
+    assert all(p.grad is None or not p.grad.any() for p in net.hidden.parameters())
+    assert net.freq_hidden[0].weight.grad.abs().sum() > 0
+    with pytest.raises(BadInput, match="freq_width"):
+        SurrogateNet(11, n, m, 0, freq_width=4)
 
 
 def test_evaluate_surrogate_script(tmp_path, tiny_set):

@@ -26,7 +26,8 @@ def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[d
         weights, meta = read_checkpoint(path)
         sha256 = hashlib.sha256(Path(path).read_bytes()).hexdigest()
         net, fs = meta["network"], meta["features"]["spec"]
-        have = {"joints": meta["joints"], "width": net["width"], "depth": net["depth"],
+        have = {"joints": meta["joints"], "width": net["width"],
+                "freq_width": net.get("freq_width", 0), "depth": net["depth"],
                 "k_mode": net["k_mode"], "hypotheses": net["hypotheses"],
                 "poses": meta["poses"], "truth_modes": meta["truth_modes"],
                 # spread is absent from checkpoints made before it (then off)

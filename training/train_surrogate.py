@@ -75,6 +75,8 @@ SETTINGS = {
     "max_index": S(-1, "use records with index <= max_index (-1: all present)"),
     "width": S(256, "hidden units per layer"),
     "depth": S(3, "hidden layers"),
+    "freq_width": S(0, "> 0: the frequency outputs get a trunk of their own, depth layers of this "
+                       "many units (0: they share the PRBDM's; stored as one MLP either way)"),
     "k_mode": S("projection", "SCFs: least squares against the predicted truth frequencies, or "
                               "log k regressed", ("projection", "direct")),
     "hypotheses": S(4, "candidate segmentations per beam; the one whose PRBDM best matches the "
@@ -143,8 +145,8 @@ def _fail(message):
 run_modes = [s.strip() for s in modes.split(",") if s.strip()]
 if not run_modes or set(run_modes) - {"label", "physics", "combined"}:
     _fail(f"--modes: each one of label, physics, combined, got {modes!r}")
-for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("depth", 1), ("hypotheses", 1),
-                   ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
+for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("freq_width", 0), ("depth", 1),
+                   ("hypotheses", 1), ("batch_size", 1), ("max_epochs", 1), ("patience", 1), ("lr_patience", 1),
                    ("cells", 1), ("rfe_segments", 2), ("threads", 1)):
     if globals()[_name] < _lo:
         _fail(f"--{_name}: must be an integer >= {_lo}, got {globals()[_name]}")
@@ -274,7 +276,8 @@ if init_from:
                                              spread=spread, profile=profile, ritz=ritz))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
-            "joints": n, "width": width, "depth": depth, "k_mode": k_mode,
+            "joints": n, "width": width, "freq_width": freq_width, "depth": depth,
+            "k_mode": k_mode,
             "hypotheses": hypotheses, "poses": model.make_poses(pose_spec, n).tolist(),
             "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
             "rfe_coarse": rfe_coarse, "spread": spread}, spec["truth"])
@@ -514,12 +517,13 @@ def start_weights(member):
 
 def make_net(member=0):
     net = Net(len(names), n, m, R, width=width, depth=depth, k_mode=k_mode,
-              hypotheses=hypotheses)
+              hypotheses=hypotheses, freq_width=freq_width)
     if init_meta is not None:
         return net.load_weights(start_weights(member)).to(dev)
     with torch.no_grad():       # start near the mean label: gamma logits, standardised k, freq 0
-        net.head.weight.mul_(0.1)
-        net.head.bias.zero_()
+        for head in (net.head, net.freq_head) if freq_width else (net.head,):
+            head.weight.mul_(0.1)
+            head.bias.zero_()
         if init_gamma:                                      # checked with the inputs
             g = torch.tensor([float(v) for v in init_gamma.split(",")]) - GAMMA_MIN
         elif labelled:
@@ -700,6 +704,9 @@ meta = {
                                    if ritz else "")},
     "normalisation": {k: v.tolist() for k, v in norm_np.items()},
     "network": {"kind": "mlp", "width": width, "depth": depth, "activation": "silu",
+                # > 0: the frequency outputs' own trunk, stored beside the PRBDM's as one MLP of
+                # width + freq_width units with block-diagonal hidden layers
+                "freq_width": freq_width,
                 "k_mode": k_mode, "hypotheses": hypotheses, "members": members,
                 "select_poses": gauss_select_poses(m),
                 # the candidate rule predict answers with, and this test is measured with

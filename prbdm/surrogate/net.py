@@ -21,26 +21,48 @@ class SurrogateNet(nn.Module):
     :func:`prbdm.surrogate.decode.decode_numpy`).
 
     layers: ``depth`` hidden Linear + SiLU layers of ``width`` units, then one linear head
-    of H (n + 1) + m + R outputs (H candidate segmentations, ``hypotheses``)."""
+    of H (n + 1) + m + R outputs (H candidate segmentations, ``hypotheses``). ``freq_width``
+    > 0: the R frequency outputs come from a trunk of their own, ``depth`` layers of
+    ``freq_width`` units (stored as one MLP, block-diagonal: inference does not know)."""
 
     def __init__(self, n_in: int, joints: int, poses: int, modes: int, width: int = 256,
-                 depth: int = 3, k_mode: str = "projection", hypotheses: int = 1):
+                 depth: int = 3, k_mode: str = "projection", hypotheses: int = 1,
+                 freq_width: int = 0):
         super().__init__()
         if k_mode not in K_MODES:
             raise BadInput(f"k_mode: must be one of {', '.join(K_MODES)}, got {k_mode!r}")
         if hypotheses > 1 and k_mode == "direct":
             raise BadInput("hypotheses > 1 needs k_mode 'projection'")
+        if freq_width < 0 or (freq_width and modes < 1):
+            raise BadInput(f"freq_width: 0, or > 0 with frequency outputs, got {freq_width}")
         self.joints, self.n_poses, self.modes, self.k_mode = joints, poses, modes, k_mode
-        self.hypotheses = hypotheses
+        self.hypotheses, self.freq_width = hypotheses, int(freq_width)
+        # freq_width > 0: the frequency outputs have a trunk of their own (no capacity shared
+        # with the PRBDM's candidates and SCFs); both trunks together are still one MLP, of width
+        # width + freq_width with block-diagonal hidden layers (:meth:`weights`)
+        prbdm_out = hypotheses * (joints + 1) + poses + (0 if freq_width else modes)
+        self.hidden, self.head = self._mlp(n_in, width, depth, prbdm_out)
+        if freq_width:
+            self.freq_hidden, self.freq_head = self._mlp(n_in, freq_width, depth, modes)
+
+    @staticmethod
+    def _mlp(n_in, width, depth, n_out):
         dims = [n_in] + [width] * depth
-        self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
-        self.head = nn.Linear(width, hypotheses * (joints + 1) + poses + modes)
+        return (nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:])),
+                nn.Linear(width, n_out))
+
+    @staticmethod
+    def _run(hidden, head, f):
+        h = f
+        for layer in hidden:
+            h = torch.nn.functional.silu(layer(h))
+        return head(h)
 
     def forward(self, f):
-        h = f
-        for layer in self.hidden:
-            h = torch.nn.functional.silu(layer(h))
-        return self.head(h)
+        out = self._run(self.hidden, self.head, f)
+        if self.freq_width:
+            out = torch.cat([out, self._run(self.freq_hidden, self.freq_head, f)], -1)
+        return out
 
     def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
                 select_poses=None) -> dict:
@@ -53,19 +75,48 @@ class SurrogateNet(nn.Module):
         return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
                             poses, r, self.hypotheses, select_poses)
 
+    def _layers(self):
+        """[(weight, bias)] of the one MLP the checkpoint stores: with a frequency trunk, its
+        layers and the PRBDM trunk's side by side (hidden layers block-diagonal)."""
+        pairs = [(a.weight, a.bias) for a in [*self.hidden, self.head]]
+        if not self.freq_width:
+            return pairs
+        out = []
+        for i, b in enumerate([*self.freq_hidden, self.freq_head]):
+            (Wp, bp), (Wf, bf) = pairs[i], (b.weight, b.bias)
+            if i == 0:                                   # both read the features
+                W = torch.cat([Wp, Wf], 0)
+            else:
+                W = torch.block_diag(Wp, Wf)
+            out.append((W, torch.cat([bp, bf])))
+        return out
+
     def weights(self) -> dict:
         """The weights as the checkpoint stores them: layers.{i}.weight/bias, NumPy float32."""
         out = {}
-        for i, layer in enumerate([*self.hidden, self.head]):
-            out[f"layers.{i}.weight"] = layer.weight.detach().cpu().numpy().astype(np.float32)
-            out[f"layers.{i}.bias"] = layer.bias.detach().cpu().numpy().astype(np.float32)
+        for i, (W, b) in enumerate(self._layers()):
+            out[f"layers.{i}.weight"] = W.detach().cpu().numpy().astype(np.float32)
+            out[f"layers.{i}.bias"] = b.detach().cpu().numpy().astype(np.float32)
         return out
 
     def load_weights(self, weights: dict):
-        """Copy weights in the checkpoint's layout (:meth:`weights`) into the layers."""
+        """Copy weights in the checkpoint's layout (:meth:`weights`) into the layers (with a
+        frequency trunk: read back from the blocks :meth:`weights` wrote)."""
+        def w(i, key):
+            return torch.as_tensor(weights[f"layers.{i}.{key}"])
+
         for i, layer in enumerate([*self.hidden, self.head]):
-            layer.weight.data.copy_(torch.as_tensor(weights[f"layers.{i}.weight"]))
-            layer.bias.data.copy_(torch.as_tensor(weights[f"layers.{i}.bias"]))
+            rows = layer.weight.shape[0]
+            cols = slice(None) if i == 0 else slice(0, layer.weight.shape[1])
+            layer.weight.data.copy_(w(i, "weight")[:rows, cols])
+            layer.bias.data.copy_(w(i, "bias")[:rows])
+        if self.freq_width:
+            for i, layer in enumerate([*self.freq_hidden, self.freq_head]):
+                rows = slice(self.head.weight.shape[0] if i == len(self.hidden) else
+                             self.hidden[i].weight.shape[0], None)
+                cols = slice(None) if i == 0 else slice(self.hidden[i - 1].weight.shape[0], None)
+                layer.weight.data.copy_(w(i, "weight")[rows, cols])
+                layer.bias.data.copy_(w(i, "bias")[rows])
         return self
 
 
