@@ -856,3 +856,26 @@ def test_silu_is_quiet_and_exact_far_below_zero():
     assert np.all(np.isfinite(out))
     assert out[0] == 0.0 and out[1] == 0.0 and out[3] == 0.0 and out[5] == 800.0
     assert out[2] == pytest.approx(-30.0 / (1.0 + np.exp(30.0)), rel=1e-12)
+
+
+def test_detached_frequencies_take_no_gradient_from_the_prbdm(tiny_set):
+    """``detach_frequencies`` (training's ``freq_detach``): the SCFs, projected on the predicted
+    frequencies, pass no gradient back to them; without it they do."""
+    src = sg.load_checkpoint(tiny_checkpoint(tiny_set))
+    bb = BeamBatch.from_beams([random_beam(6, i) for i in range(5)])
+    feats = features(bb, src.feature_spec)
+    f = torch.as_tensor((feats - src.f_mean) / src.f_std, dtype=torch.float32)
+    norm = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in src.norm.items()}
+    R = len(src.norm["freq_mean"])
+    rfe = torch.as_tensor(feats[:, src.feature_spec.base_columns(R)], dtype=torch.float32)
+    torch.manual_seed(0)
+    net = SurrogateNet(len(src.names), 2, len(src.poses), R, width=8, depth=1, hypotheses=2,
+                       freq_width=4)
+    for detach in (False, True):
+        net.zero_grad()
+        d = net.outputs(f, norm, rfe, torch.as_tensor(bb.x), torch.as_tensor(bb.w),
+                        torch.as_tensor(src.poses), src.modes, detach_frequencies=detach)
+        d["logk"].sum().backward()
+        moved = net.freq_head.weight.grad
+        assert (moved is None or not moved.any()) == detach
+        assert net.head.weight.grad.abs().sum() > 0          # the PRBDM's own outputs learn

@@ -101,6 +101,9 @@ SETTINGS = {
     "freq_loss": S("mse", "the frequency head's label term: mse (its mean) or l1 (its median: "
                           "where the kept mode switches with the shape the label is two-valued, "
                           "and the mean of the two is wrong for both)", ("mse", "l1")),
+    "freq_detach": S(False, "the PRBDM loss does not move the frequency outputs (the SCF "
+                            "projection reads them without their gradient): they learn the "
+                            "truth labels alone"),
     "vp_weight": S(1.0, "physics: + vp_weight * the objective of the predicted gamma with its "
                         "best SCFs (variable projection on the truth, as the fit)"),
     "loss_power": S(1.0, "physics: each beam's loss L [%] enters as L**p / p (p = 0: log L, "
@@ -419,7 +422,8 @@ def beam_rows(rows):
 def outputs(net, rows):
     """Decoded network outputs for data rows (dict, see prbdm.surrogate.decode.decode_torch), with
     ``corr`` the predicted correction of the rigid-finite-element log frequencies."""
-    d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses_dev, r)
+    d = net.outputs(F[rows], norm, RFE[rows], BX[rows], BW[rows], poses_dev, r,
+                    detach_frequencies=freq_detach)
     d["corr"] = d["log_omega_hat"] - RFE[rows]
     return d
 

@@ -166,11 +166,14 @@ def combine_members(outs: list, hypotheses: int, joints: int):
 
 
 def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None, w=None,
-                 poses=None, r=None, hypotheses: int = 1, select_poses=None) -> dict:
+                 poses=None, r=None, hypotheses: int = 1, select_poses=None,
+                 detach_frequencies: bool = False) -> dict:
     """Torch twin of :func:`decode_numpy` (differentiable; eigenvalues in float64). Also returns
     ``mu_all`` (B, H, m, n) for the training losses. By default (``select_poses=None``) the
     candidates are compared on every pose (all are solved for the training losses anyway): the
-    rule that the Gauss poses of :func:`decode_numpy` approximate at a third of the cost."""
+    rule that the Gauss poses of :func:`decode_numpy` approximate at a third of the cost.
+    ``detach_frequencies``: the candidates' choice and the SCF projection read the predicted
+    frequencies without their gradient, so that a loss on the PRBDM does not move them."""
     import torch
 
     from .. import model
@@ -191,7 +194,8 @@ def decode_torch(out, norm: dict, joints: int, m: int, k_mode: str, rfe, x=None,
         ones = torch.ones(B, 1, dtype=torch.float64)
         bt = model.BeamTensors(x[:, None], w[:, None], ones, ones, ones, ones)
         mu_all = model.eigenvalues_unit_k(bt, gamma_all.double(), poses, "beam")
-        lam_p = torch.exp(2 * log_omega_hat[:, :r].double())
+        lam_p = torch.exp(2 * (log_omega_hat.detach() if detach_frequencies
+                               else log_omega_hat)[:, :r].double())
         rows = torch.arange(B)
         # the choice on every pose, as the loss itself (the first and last poses alone chose a
         # worse candidate for many beams: docs/surrogate.md §5)

@@ -65,7 +65,7 @@ class SurrogateNet(nn.Module):
         return out
 
     def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
-                select_poses=None) -> dict:
+                select_poses=None, detach_frequencies=False) -> dict:
         """Decoded outputs for standardised features ``f`` (B, F), see
         :func:`decode_torch`: gamma (B, n+1), logk (B, m), log_omega_hat (B, R), mu
         (B, m, n) unit-k PRBDM eigenvalues (float64; None for ``k_mode = 'direct'``), ...
@@ -73,7 +73,8 @@ class SurrogateNet(nn.Module):
         features; x, w (B, S) / L, poses (m, n) and the mapped mode count r are needed by
         ``k_mode = 'projection'``; candidates are compared on ``select_poses`` (all: None)."""
         return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                            poses, r, self.hypotheses, select_poses)
+                            poses, r, self.hypotheses, select_poses,
+                            detach_frequencies)
 
     def _layers(self):
         """[(weight, bias)] of the one MLP the checkpoint stores: with a frequency trunk, its
@@ -137,9 +138,10 @@ class SurrogateEnsemble(nn.Module):
                                self.joints)
 
     def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
-                select_poses=None) -> dict:
+                select_poses=None, detach_frequencies=False) -> dict:
         return decode_torch(self(f), norm, self.joints, self.n_poses, self.k_mode, rfe, x, w,
-                            poses, r, self.hypotheses, select_poses)
+                            poses, r, self.hypotheses, select_poses,
+                            detach_frequencies)
 
     def weights(self) -> dict:
         """members.{j}.layers.{i}.weight/bias, NumPy float32."""
