@@ -155,6 +155,16 @@ def checkpoints_page(folder: Path | None = None) -> str:
                           not in ((None, None), paper_thickness) else ""))
             out.append(f"- data set `{s.get('path')}`: {s.get('size', 0):,} panels, seed "
                        f"{sp.get('seed')}, {gen}, fits with {sp.get('starts')} starts{tgt}")
+        net = m.get("network") or {}
+        cfg = ((m.get("training") or {}).get("config") or {})
+        if net.get("width"):
+            out.append(f"- network: {net.get('members', 1)} x an MLP of {net.get('depth')} x "
+                       f"{net['width']} SiLU units, {net.get('hypotheses', 1)} candidate "
+                       "segmentations each"
+                       + (f"; the truth frequencies on a trunk of their own, {net.get('depth')} x "
+                          f"{net['freq_width']} units"
+                          + (", which the PRBDM loss does not move" if cfg.get("freq_detach")
+                             else "") if net.get("freq_width") else ""))
         init = (m.get("training") or {}).get("init_from")
         if init:
             out.append(f"- fine-tuned from `{init.get('name') or init.get('path')}`")
