@@ -83,13 +83,10 @@ class SurrogateNet(nn.Module):
         if not self.freq_width:
             return pairs
         out = []
-        for i, b in enumerate([*self.freq_hidden, self.freq_head]):
-            (Wp, bp), (Wf, bf) = pairs[i], (b.weight, b.bias)
-            if i == 0:                                   # both read the features
-                W = torch.cat([Wp, Wf], 0)
-            else:
-                W = torch.block_diag(Wp, Wf)
-            out.append((W, torch.cat([bp, bf])))
+        for i, ((Wp, bp), f) in enumerate(zip(pairs, [*self.freq_hidden, self.freq_head])):
+            # the first layer: both read the features; then each its own trunk's units
+            W = torch.cat([Wp, f.weight], 0) if i == 0 else torch.block_diag(Wp, f.weight)
+            out.append((W, torch.cat([bp, f.bias])))
         return out
 
     def weights(self) -> dict:
@@ -106,18 +103,16 @@ class SurrogateNet(nn.Module):
         def w(i, key):
             return torch.as_tensor(weights[f"layers.{i}.{key}"])
 
-        for i, layer in enumerate([*self.hidden, self.head]):
-            rows = layer.weight.shape[0]
-            cols = slice(None) if i == 0 else slice(0, layer.weight.shape[1])
-            layer.weight.data.copy_(w(i, "weight")[:rows, cols])
-            layer.bias.data.copy_(w(i, "bias")[:rows])
-        if self.freq_width:
-            for i, layer in enumerate([*self.freq_hidden, self.freq_head]):
-                rows = slice(self.head.weight.shape[0] if i == len(self.hidden) else
-                             self.hidden[i].weight.shape[0], None)
-                cols = slice(None) if i == 0 else slice(self.hidden[i - 1].weight.shape[0], None)
-                layer.weight.data.copy_(w(i, "weight")[rows, cols])
-                layer.bias.data.copy_(w(i, "bias")[rows])
+        prbdm = [*self.hidden, self.head]
+        for i, layer in enumerate(prbdm):             # the first rows and columns of each layer
+            cols = slice(None) if i == 0 else slice(0, layer.in_features)
+            layer.weight.data.copy_(w(i, "weight")[:layer.out_features, cols])
+            layer.bias.data.copy_(w(i, "bias")[:layer.out_features])
+        if self.freq_width:                            # the frequency trunk: the rest of them
+            for i, (p, layer) in enumerate(zip(prbdm, [*self.freq_hidden, self.freq_head])):
+                cols = slice(None) if i == 0 else slice(p.in_features, None)
+                layer.weight.data.copy_(w(i, "weight")[p.out_features:, cols])
+                layer.bias.data.copy_(w(i, "bias")[p.out_features:])
         return self
 
 
