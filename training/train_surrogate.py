@@ -95,7 +95,7 @@ SETTINGS = {
     "lr_schedule": S("plateau", "plateau: halve after lr_patience epochs without a better "
                                 "validation loss; cosine: lr (1 + cos(pi e / max_epochs)) / 2",
                      ("plateau", "cosine")),
-    "max_minutes": S(9.0, "wall-clock limit per mode [min] (after the frequency phase)"),
+    "max_minutes": S(9.0, "wall-clock limit per mode [min]"),
     "phys_weight": S(1.0, "combined mode: label + phys_weight * physics [%]"),
     "freq_weight": S(1.0, "weight of the frequency head's label term"),
     "freq_loss": S("mse", "the frequency head's label term: mse (its mean) or l1 (its median: "
@@ -104,10 +104,6 @@ SETTINGS = {
     "freq_detach": S(False, "the PRBDM loss does not move the frequency outputs (the SCF "
                             "projection reads them without their gradient): they learn the "
                             "truth labels alone"),
-    "freq_minutes": S(0.0, "> 0, with freq_width and freq_detach: the frequency trunk first "
-                           "trains alone on the truth labels for up to this many minutes (or "
-                           "max_epochs, or patience epochs without a lower validation error; its "
-                           "own lr halving), then stays fixed while the PRBDM's trunk trains"),
     "vp_weight": S(1.0, "physics: + vp_weight * the objective of the predicted gamma with its "
                         "best SCFs (variable projection on the truth, as the fit)"),
     "loss_power": S(1.0, "physics: each beam's loss L [%] enters as L**p / p (p = 0: log L, "
@@ -160,12 +156,6 @@ for _name, _lo in (("joints", 0), ("members", 1), ("width", 1), ("freq_width", 0
 for _name in ("lr", "max_minutes"):
     if not globals()[_name] > 0:
         _fail(f"--{_name}: must be > 0, got {globals()[_name]}")
-if not freq_minutes >= 0:
-    _fail(f"--freq_minutes: must be >= 0, got {freq_minutes}")
-if freq_minutes > 0 and not (freq_width > 0 and freq_detach):
-    _fail(f"--freq_minutes: a frequency phase needs a frequency trunk that the PRBDM loss does "
-          f"not move (--freq_width > 0 and --freq_detach true), got --freq_width {freq_width} "
-          f"--freq_detach {str(freq_detach).lower()}")
 if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
 if not 0 <= loss_power <= 8:
@@ -558,83 +548,19 @@ def make_net(member=0):
     return net.to(dev)
 
 
-def train_frequencies(net, label, gen):
-    """The frequency phase (``freq_minutes``): the frequency trunk alone, on the truth labels of
-    every training panel (the partial sets' known modes too), the mean squared standardised
-    error as in :func:`label_terms`, its own AdamW, lr halving and early stopping on the
-    validation set's; then its parameters are frozen. With ``freq_detach`` nothing else moves
-    them, so the PRBDM's phase would only train them on further at its own learning rate."""
-    params = net.frequency_parameters()
-    opt = torch.optim.AdamW(params, lr=lr, weight_decay=weight_decay)
-    sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
-    rows_all = torch.as_tensor(tr_all)
-    target = (Yc - norm["freq_mean"]) / norm["freq_std"]         # standardised, 0 where unknown
-    val_rows = torch.as_tensor(split["val"], device=dev)
-
-    def val_error():
-        with torch.no_grad():
-            d = (net.frequency_outputs(F[val_rows]) - target[val_rows]) * norm["freq_std"]
-            return float((d ** 2).mean()), np.median(np.abs(np.expm1(d.double().cpu().numpy())),
-                                                     0)
-
-    best, best_state, best_epoch, stale, epoch = math.inf, None, 0, 0, 0
-    t0 = time.perf_counter()
-    for epoch in range(1, max_epochs + 1):
-        perm = rows_all[torch.randperm(len(rows_all), generator=gen)].to(dev)
-        tot = 0.0
-        for i in range(0, len(perm), batch_size):
-            rows = perm[i:i + batch_size]
-            known_ = KNOWN[rows]
-            err = (net.frequency_outputs(F[rows]) - target[rows]) ** 2 * known_
-            loss = err.sum() / known_.sum().clamp_min(1.0)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(params, 10.0)
-            opt.step()
-            tot += float(loss.detach()) * len(rows)
-        score, med = val_error()
-        sched.step(score)
-        if score < best:
-            best, best_epoch, stale = score, epoch, 0
-            best_state = [p.detach().clone() for p in params]
-        else:
-            stale += 1
-        elapsed = time.perf_counter() - t0
-        log(f"{label:8s} frequency epoch {epoch:4d}  train {tot / len(perm):.5f}  val mse "
-            f"{score:.3e}  freq err median per mode {[round(e * 100, 3) for e in med]} %  lr "
-            f"{opt.param_groups[0]['lr']:.2g}  {elapsed:.0f} s", always=False)
-        if stale >= patience or elapsed > 60 * freq_minutes:
-            break
-    with torch.no_grad():
-        for p, b in zip(params, best_state or params):      # None: no finite validation error
-            p.copy_(b)
-            p.requires_grad_(False)
-    _, med = val_error()
-    summary = {"best_epoch": best_epoch, "epochs": epoch, "time_s": time.perf_counter() - t0,
-               "stopped": "patience" if stale >= patience
-               else ("time limit" if epoch < max_epochs else "max_epochs"),
-               "val_freq_err_median": med.tolist()}
-    log(f"== {label} frequency phase: best epoch {best_epoch}/{epoch} ({summary['stopped']}), "
-        f"{summary['time_s']:.0f} s; val freq err median per mode "
-        f"{[round(e * 100, 3) for e in med]} %; the frequency trunk is fixed from here")
-    return summary
-
-
 def train(mode, member=0):
     """Train one network from seed + member; returns it and a summary of its run."""
     torch.manual_seed(seed + member)
     np.random.seed(seed + member)
     label = mode if members == 1 else f"{mode}[{member}]"
     net = make_net(member)
-    gen = torch.Generator().manual_seed(seed + member)
-    freq_phase = train_frequencies(net, label, gen) if freq_minutes > 0 else None
-    opt = torch.optim.AdamW([p for p in net.parameters() if p.requires_grad], lr=lr,
-                            weight_decay=weight_decay)
+    opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=weight_decay)
     if lr_schedule == "cosine":
         sched = torch.optim.lr_scheduler.LambdaLR(
             opt, lambda e: 0.5 * (1 + math.cos(math.pi * min(e, max_epochs) / max_epochs)))
     else:
         sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=lr_patience)
+    gen = torch.Generator().manual_seed(seed + member)
     train_rows = torch.as_tensor(split["train"])
     partial_train = torch.as_tensor(partial_rows)
     best, best_state, best_epoch, stale = math.inf, None, 0, 0
@@ -698,8 +624,6 @@ def train(mode, member=0):
                "time_s": time.perf_counter() - t0, "stopped": "patience" if stale >= patience
                else ("time limit" if epoch < max_epochs else "max_epochs"),
                "val": evaluate(net, split["val"]), "train": evaluate(net, split["train"])}
-    if freq_phase is not None:
-        summary["frequency_phase"] = freq_phase
     v = summary["val"]
     log(f"== {label}: best epoch {best_epoch}/{epoch} ({summary['stopped']}), "
         f"{summary['time_s']:.0f} s; val PRBDM loss mean {v['loss_mean']:.4f} % median "

@@ -61,17 +61,8 @@ class SurrogateNet(nn.Module):
     def forward(self, f):
         out = self._run(self.hidden, self.head, f)
         if self.freq_width:
-            out = torch.cat([out, self.frequency_outputs(f)], -1)
+            out = torch.cat([out, self._run(self.freq_hidden, self.freq_head, f)], -1)
         return out
-
-    def frequency_outputs(self, f):
-        """The R standardised frequency outputs alone, from the frequency trunk
-        (``freq_width`` > 0): what :meth:`forward` ends with."""
-        return self._run(self.freq_hidden, self.freq_head, f)
-
-    def frequency_parameters(self) -> list:
-        """The frequency trunk's parameters (``freq_width`` > 0)."""
-        return [*self.freq_hidden.parameters(), *self.freq_head.parameters()]
 
     def outputs(self, f, norm: dict, rfe, x=None, w=None, poses=None, r=None,
                 select_poses=None, detach_frequencies=False) -> dict:
