@@ -158,13 +158,15 @@ def checkpoints_page(folder: Path | None = None) -> str:
         net = m.get("network") or {}
         cfg = ((m.get("training") or {}).get("config") or {})
         if net.get("width"):
+            trunk = ""
+            if net.get("freq_width"):
+                trunk = (f"; the truth frequencies on a trunk of their own, {net.get('depth')} x "
+                         f"{net['freq_width']} units")
+                if cfg.get("freq_detach"):
+                    trunk += ", which the PRBDM loss does not move"
             out.append(f"- network: {net.get('members', 1)} x an MLP of {net.get('depth')} x "
                        f"{net['width']} SiLU units, {net.get('hypotheses', 1)} candidate "
-                       "segmentations each"
-                       + (f"; the truth frequencies on a trunk of their own, {net.get('depth')} x "
-                          f"{net['freq_width']} units"
-                          + (", which the PRBDM loss does not move" if cfg.get("freq_detach")
-                             else "") if net.get("freq_width") else ""))
+                       f"segmentations each{trunk}")
         init = (m.get("training") or {}).get("init_from")
         if init:
             out.append(f"- fine-tuned from `{init.get('name') or init.get('path')}`")
