@@ -734,11 +734,12 @@ def test_fewer_members_than_tested_say_so():
     if not path.is_file():
         pytest.skip("mindlin-n4 is not shipped")
     full = sg.load_checkpoint(path)
-    assert full.n_members == 2
+    m = full.n_members
+    assert m >= 2
     one = full.with_members(1)
-    assert full.held_out_accuracy(0.9)["members_used"] == 2
+    assert full.held_out_accuracy(0.9)["members_used"] == m
     acc = one.held_out_accuracy(0.9)
-    assert (acc["members_measured"], acc["members_used"]) == (2, 1)
+    assert (acc["members_measured"], acc["members_used"]) == (m, 1)
     assert "this answer used 1" in one.accuracy_warning(0.9)
     assert "this answer used" not in full.accuracy_warning(0.9)
 
