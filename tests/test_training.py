@@ -459,8 +459,9 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
 # ------------------------------------------------------------------------------- retest
 @pytest.mark.parametrize("name, coretype", [
     ("plate-n4", None),
-    # four members choose among 16 candidates on each of 7,916 test panels: over 10 min on 2
-    # cores, on demand (`pytest -m slow`); plate-n4 keeps the script tested in the default suite
+    # four members choose among 16 candidates on each of 7,916 test panels: ~1.6 min on 2 cores
+    # with one BLAS thread (training/_cli.py), on demand (`pytest -m slow`); plate-n4 keeps the
+    # script tested in the default suite
     pytest.param("mindlin-n4", None, marks=pytest.mark.slow),
     # the generic kernels take ~7x longer on the Ritz features: on demand;
     # tests/test_planform_ritz.py checks those features against them in seconds
