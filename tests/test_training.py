@@ -4,6 +4,7 @@ objectives whose checkpoints load and predict."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -73,6 +74,35 @@ def test_help(name, tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.startswith("usage:") and run.stderr == ""
     assert listing(tmp_path) == {}
+
+
+_NUMPY_SEES = """
+import os, runpy, sys
+class Watch:                       # records the BLAS setting when NumPy is first imported
+    seen = "never"
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and Watch.seen == "never":
+            Watch.seen = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
+sys.meta_path.insert(0, Watch())
+sys.path.insert(0, sys.argv[1])
+sys.argv = [sys.argv[2], "--help"]
+try:
+    runpy.run_path(sys.argv[0], run_name="__main__")
+except SystemExit:
+    pass
+print(Watch.seen, file=sys.stderr)
+"""
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in TRAINING.glob("[!_]*.py")))
+def test_every_script_sets_one_blas_thread_before_numpy_loads(name, tmp_path):
+    """OpenBLAS reads its thread count once, when NumPy loads: a script that loads NumPy before
+    ``_cli`` runs its own process (feature builds included) with a BLAS thread per core."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    run = subprocess.run([sys.executable, "-c", _NUMPY_SEES, str(TRAINING), str(TRAINING / name)],
+                         capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+    seen = run.stderr.strip().splitlines()[-1]
+    assert seen in ("1", "never"), (name, seen)
 
 
 # ------------------------------------------------------------------------------- bad input

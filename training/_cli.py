@@ -16,11 +16,11 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-# One BLAS thread per process where a script imports this module before NumPy loads (retest,
-# add_neighbours, evaluate_objective), and in every process a script starts afterwards:
-# the scripts spread work over processes and threads themselves, and OpenBLAS's own threads on
-# top made training/retest.py 3x slower on 2 cores (mindlin-n4: 1.6 min with one BLAS thread,
-# over 7 without). An explicit OPENBLAS_NUM_THREADS in the environment still wins.
+# One BLAS thread per process: every training script imports this module before NumPy loads,
+# so the setting reaches the script's own process and every process it starts. The scripts
+# spread work over processes and threads themselves, and OpenBLAS's own threads on top made
+# training/retest.py 3x slower on 2 cores (mindlin-n4: 1.6 min with one BLAS thread, over 7
+# without). An explicit OPENBLAS_NUM_THREADS in the environment still wins.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 #: the repository root (paths recorded in metadata are made relative to it)

@@ -28,10 +28,11 @@ import os
 import time
 from pathlib import Path
 
-import numpy as np
-
-import _cli
+import _cli  # first: one BLAS thread per process before NumPy loads (see _cli)
 from _cli import Setting as S
+
+# isort: split
+import numpy as np
 
 PROG = "evaluate_surrogate"
 SETTINGS = {

@@ -46,13 +46,14 @@ import os
 import time
 from pathlib import Path
 
-import numpy as np
-
-import _cli
+import _cli  # first: one BLAS thread per process before NumPy loads (see _cli)
 import _heldout
 import _sets
 import _start
 from _cli import Setting
+
+# isort: split
+import numpy as np
 
 PROG = "train_surrogate"
 S = Setting
