@@ -87,6 +87,9 @@ def test_a_ritz_network_corrects_the_ritz_columns(spread):
     batch = BeamBatch.from_arrays([[0.0, 1.0]], [[0.1, 0.05]], [0.01], Material(nu=0.3))
     assert features(batch, spec).shape == (1, len(names))
     assert FeatureSpec(**spec.to_dict()) == spec
+    rich = FeatureSpec(**{**spec.to_dict(), "ritz_basis": [4, 4]})
+    assert rich.ritz_basis == (4, 4) and FeatureSpec(**rich.to_dict()) == rich
+    assert not np.allclose(features(batch, rich), features(batch, spec))
 
 
 def test_stations_a_sliver_apart_are_a_step():

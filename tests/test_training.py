@@ -122,6 +122,8 @@ def _one_line_exit_2(run, *words):
     (("--data", "DATA", "--out", "OUT", "--width", "wide"), ["--width", "wide"]),
     (("--data", "DATA", "--out", "OUT", "--objective", "loudness"), ["--objective", "frequency"]),
     (("--data", "DATA", "--out", "OUT", "--members", "0"), ["--members", ">= 1"]),
+    (("--data", "DATA", "--out", "OUT", "--ritz", "true", "--ritz_basis", "4"), ["--ritz_basis"]),
+    (("--data", "DATA", "--out", "OUT", "--ritz_basis", "4,4"), ["--ritz_basis", "--ritz"]),
     (("--data", "DATA", "--out", "out.pt"), ["--out", ".safetensors"]),
     (("--data", "DATA", "--out", "OUT", "--modes", "physics,guessing"), ["--modes"]),
     (("--data", "DATA", "--out", "OUT", "--config", "none.toml"), ["--config", "none.toml"]),
@@ -440,6 +442,39 @@ def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):
     assert "unreadable" in lines[0] and "4 to compute" in lines[1]
     np.testing.assert_allclose(third, second, rtol=1e-12)
     assert [p.name for p in tmp_path.iterdir()] == [kept.name]       # no partial file left
+
+
+def test_ritz_cache_keeps_what_a_killed_run_computed(tmp_path, tiny_data, monkeypatch):
+    """The columns are saved every SAVE_EVERY panels: a run killed on the way keeps what it
+    computed, and the next one computes the rest only. A richer basis has files of its own."""
+    import _ritz_cache
+    table = D.read_table(tiny_data, status="ok").to_pandas().iloc[:6].reset_index(drop=True)
+    spec = D.read_manifest(tiny_data)["spec"]
+    material = spec["beam"]["material"]
+    monkeypatch.setattr(_ritz_cache, "SAVE_EVERY", 2)
+    real, calls = _ritz_cache.features_module.ritz_log_omega, []
+
+    def dies_on_the_third_piece(batch, modes, basis=()):
+        calls.append(len(batch))
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(batch, modes, basis)
+    monkeypatch.setattr(_ritz_cache.features_module, "ritz_log_omega", dies_on_the_third_piece)
+    with pytest.raises(KeyboardInterrupt):
+        _ritz_cache.ritz_columns(table, spec, 3, tmp_path, log=lambda _: None)
+    monkeypatch.setattr(_ritz_cache.features_module, "ritz_log_omega", real)
+    lines = []
+    done = _ritz_cache.ritz_columns(table, spec, 3, tmp_path, log=lines.append)
+    assert "4 kept" in lines[0] and "2 to compute" in lines[0], lines
+    np.testing.assert_allclose(done, real(BeamBatch.from_table(table, material), 3),
+                               rtol=1e-12)
+    lines = []
+    rich = _ritz_cache.ritz_columns(table, spec, 3, tmp_path, log=lines.append, basis=(4, 4))
+    assert "0 kept" in lines[0] and len(list(tmp_path.glob("ritz-*.npz"))) == 2
+    np.testing.assert_allclose(rich, real(BeamBatch.from_table(table, material), 3, (4, 4)),
+                               rtol=1e-12)
+    assert np.all(rich < done + 1e-9)              # a richer Ritz basis: no higher frequency
+    assert not np.allclose(rich, done, rtol=1e-4)
 
 
 def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):

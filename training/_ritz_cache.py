@@ -36,19 +36,41 @@ _CODE = (Path(planform_ritz.__file__).read_bytes() + Path(modes_module.__file__)
          + inspect.getsource(BeamBatch.from_arrays).encode())
 
 
-def _key(spec: dict, modes: int) -> str:
-    head = json.dumps({"spec": spec, "modes": modes}, sort_keys=True).encode()
+#: computed panels between two saves (a minute or two of a richer basis on 2 cores)
+SAVE_EVERY = 2000
+
+
+def _key(spec: dict, modes: int, basis=()) -> str:
+    head = {"spec": spec, "modes": modes}
+    if basis:                    # the default basis's files keep their names
+        head["basis"] = [int(v) for v in basis]
+    head = json.dumps(head, sort_keys=True).encode()
     return hashlib.sha256(head + _CODE).hexdigest()[:24]
 
 
-def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.ndarray:
+def _save(path: Path, index, digest, cols):
+    """The file, whole or not at all (another run may write the same set: its own temporary)."""
+    order = np.argsort(index, kind="stable")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, partial = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".partial.npz")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, index=index[order], digest=digest[order], columns=cols[order])
+        os.replace(partial, path)
+    finally:
+        Path(partial).unlink(missing_ok=True)
+
+
+def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print,
+                 basis=()) -> np.ndarray:
     """:func:`prbdm.surrogate.features.ritz_log_omega` of a data set's records ``table`` (pandas,
     with ``index``), its rows read from ``folder`` where an earlier run computed them and the
-    rest computed now and added there."""
-    path = Path(folder) / f"ritz-{_key(spec, modes)}.npz"
+    rest computed now and added there, ``SAVE_EVERY`` panels at a time (a killed run keeps what
+    it computed). ``basis``: the Ritz basis (``FeatureSpec.ritz_basis``)."""
+    path = Path(folder) / f"ritz-{_key(spec, modes, basis)}.npz"
     index, digest = table["index"].to_numpy().astype(np.int64), panel_digests(table)
     out = np.full((len(table), modes), np.nan)
-    kept_index = np.zeros(0, np.int64)
+    kept_index, kept_digest, kept_cols = index[:0], digest[:0], out[:0]
     hit = np.zeros(len(index), bool)
     if len(np.unique(index)) != len(index):
         raise ValueError("ritz_columns: a table with repeated indices")
@@ -59,7 +81,7 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.n
         pass
     except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         log(f"  {path.name} unreadable ({type(exc).__name__}): computed again")
-        kept_index = np.zeros(0, np.int64)
+        kept_index, kept_digest, kept_cols = index[:0], digest[:0], out[:0]
     else:
         if len(kept_index):
             pos = np.clip(np.searchsorted(kept_index, index), 0, len(kept_index) - 1)
@@ -68,24 +90,16 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print) -> np.n
     todo = np.flatnonzero(~hit)
     log(f"  Ritz columns of {spec['beam'].get('family', 'paper')} panels, seed {spec['seed']}: "
         f"{int(hit.sum())} kept in {path.name}, {len(todo)} to compute")
-    if len(todo):
-        batch = BeamBatch.from_table(table.iloc[todo], spec["beam"]["material"])
-        out[todo] = features_module.ritz_log_omega(batch, modes)
-        # every row known now, with the kept ones this run did not read
-        if len(kept_index):
-            other = ~np.isin(kept_index, index)
-            index = np.concatenate([index, kept_index[other]])
-            digest = np.concatenate([digest, kept_digest[other]])
-            cols = np.concatenate([out, kept_cols[other]])
-        else:
-            cols = out
-        order = np.argsort(index, kind="stable")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, partial = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".partial.npz")
-        try:
-            with os.fdopen(fd, "wb") as f:     # another run may write the same set: its own file
-                np.savez(f, index=index[order], digest=digest[order], columns=cols[order])
-            os.replace(partial, path)
-        finally:
-            Path(partial).unlink(missing_ok=True)
+    if len(kept_index):          # rows this run does not read stay in the file
+        other = ~np.isin(kept_index, index)
+        kept_index, kept_digest, kept_cols = (kept_index[other], kept_digest[other],
+                                              kept_cols[other])
+    for start in range(0, len(todo), SAVE_EVERY):
+        part = todo[start:start + SAVE_EVERY]
+        batch = BeamBatch.from_table(table.iloc[part], spec["beam"]["material"])
+        out[part] = features_module.ritz_log_omega(batch, modes, basis)
+        hit[part] = True
+        _save(path, np.concatenate([index[hit], kept_index]),
+              np.concatenate([digest[hit], kept_digest]),
+              np.concatenate([out[hit], kept_cols]))
     return out

@@ -122,6 +122,9 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
+    "ritz_basis": S("", "DEGREE,CHORD_TERMS of the Ritz estimate's basis (prbdm.truth."
+                        "planform_ritz; empty: its defaults, 3,3): 4,4 follows the paper's jagged "
+                        "panels closer at ~4x the cost"),
     "partial": S("", "data sets of which the first K truth modes alone are the target, "
                      "PATH:K comma-separated (e.g. a section-rule set: its modes 1-2 are the "
                      "bending spectrum's): their training panels teach the frequency head those "
@@ -161,6 +164,14 @@ if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
 if not 0 <= loss_power <= 8:
     _fail(f"--loss_power: must be in [0, 8], got {loss_power}")
+try:
+    ritz_basis = tuple(int(v) for v in ritz_basis.split(",")) if ritz_basis.strip() else ()
+    if ritz_basis and not (len(ritz_basis) == 2 and 1 <= ritz_basis[0] <= 8
+                           and 1 <= ritz_basis[1] <= 8 and ritz):
+        raise ValueError
+except ValueError:
+    _fail(f"--ritz_basis: DEGREE,CHORD_TERMS, two integers in [1, 8], only with --ritz, got "
+          f"{ritz_basis!r}")
 out_path = Path(out)
 if out_path.suffix != ".safetensors":
     _fail(f"--out: must end in .safetensors, got {out!r}")
@@ -277,7 +288,8 @@ if init_from:
     _R = min(spec["truth_modes"], rfe_segments - 1)
     _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
                                              truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz))
+                                             spread=spread, profile=profile, ritz=ritz,
+                                             ritz_basis=ritz_basis))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "freq_width": freq_width, "depth": depth,
@@ -334,7 +346,8 @@ m = poses.shape[0]
 R = min(spec["truth_modes"], rfe_segments - 1)
 material = spec["beam"]["material"]
 fspec = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=R, truth=spec["truth"],
-                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz)
+                       rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
+                       ritz_basis=ritz_basis)
 # one set: the hash of its records (as before); several: of their hashes, in the given order
 sha = (sets[0]["sha256"] if len(sets) == 1 else
        hashlib.sha256("".join(s_["sha256"] for s_ in sets).encode()).hexdigest())
@@ -342,7 +355,8 @@ batch = BeamBatch.from_table(table, material)
 # the Ritz estimate costs ~20 ms a panel (minutes for a set): its columns are kept beside the
 # checkpoint, per set and index, for the next run (training/_ritz_cache.py)
 ritz_cols = (np.concatenate([_ritz_cache.ritz_columns(t_, s_["spec"], R,
-                                                      out_path.parent / ".feature-cache", log)
+                                                      out_path.parent / ".feature-cache", log,
+                                                      basis=ritz_basis)
                              for t_, s_ in zip(tables, sets)]) if ritz else None)
 feats = features(batch, fspec, ritz_cols)
 names = feature_names(fspec)

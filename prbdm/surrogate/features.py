@@ -182,6 +182,10 @@ class FeatureSpec:
     spread: bool = False         # add log_omega_spread, the base of the predicted frequencies
     profile: int = 0             # > 0: add the width profile at this many points of x / L
     ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
+    ritz_basis: tuple = ()       # (degree, chord terms) of that estimate; () the default one
+
+    def __post_init__(self):     # a checkpoint's JSON gives a list
+        object.__setattr__(self, "ritz_basis", tuple(int(v) for v in self.ritz_basis))
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
@@ -192,6 +196,8 @@ class FeatureSpec:
             out["profile"] = self.profile
         if self.ritz:            # the same
             out["ritz"] = True
+        if self.ritz_basis:      # the same
+            out["ritz_basis"] = list(self.ritz_basis)
         return out
 
     def base_columns(self, modes: int) -> slice:
@@ -273,7 +279,7 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(),
             # its own): where a neck cuts the load path
             cols.append(width_profile(xs, ws, spec.profile) + np.log(ws.max(-1) / wmax)[:, None])
     if spec.ritz:
-        est = (ritz_log_omega(batch, spec.rfe_modes) if ritz_columns is None
+        est = (ritz_log_omega(batch, spec.rfe_modes, spec.ritz_basis) if ritz_columns is None
                else np.asarray(ritz_columns))
         if est.shape != (len(batch), spec.rfe_modes):
             raise ValueError(f"ritz_columns: expected ({len(batch)}, {spec.rfe_modes}), got {est.shape}")
@@ -281,11 +287,15 @@ def features(batch: BeamBatch, spec: FeatureSpec = FeatureSpec(),
     return np.concatenate(cols, axis=1)
 
 
-def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
+def ritz_log_omega(batch: BeamBatch, modes: int, basis=()) -> np.ndarray:
     """log of the nondimensional frequencies ``omega / sqrt(E t^2 / (rho L^4))`` of the plate's
     bending spectrum estimated by Rayleigh-Ritz on the planform
-    (:func:`prbdm.truth.planform_ritz.ritz_bending_spectrum`, ~20 ms a panel): (B, modes)."""
+    (:func:`prbdm.truth.planform_ritz.ritz_bending_spectrum`, ~20 ms a panel): (B, modes).
+    ``basis``: ``(degree, chord_terms)`` of the Ritz basis, () its defaults (a richer one
+    follows the paper's jagged panels closer: (4, 4) halves the scatter of modes 3-4, at ~4x the
+    cost; benchmarks/planform_ritz.py)."""
     from ..truth.planform_ritz import ritz_bending_spectrum
+    options = dict(zip(("degree", "chord_terms"), map(int, basis)))
     out = np.empty((len(batch), modes))
 
     def one(i):
@@ -293,7 +303,7 @@ def ritz_log_omega(batch: BeamBatch, modes: int) -> np.ndarray:
         keep = np.concatenate([[True], np.diff(x) > 0])     # padded stations repeat the last
         lam = ritz_bending_spectrum(x[keep], w[keep],
                                     float(batch.thickness[i] / batch.length[i]),
-                                    float(batch.nu[i]), modes)
+                                    float(batch.nu[i]), modes, **options)
         if not (np.all(np.isfinite(lam)) and np.all(lam > 0)):
             raise ArithmeticError(f"log_omega_ritz: the planform estimate of beam {i} failed "
                                   f"({lam.tolist()})")
