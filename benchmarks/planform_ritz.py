@@ -31,12 +31,20 @@ from prbdm.chain import BeamBatch
 from prbdm.surrogate.features import FeatureSpec, feature_names, features, ritz_log_omega
 
 
+def _basis(text: str) -> str:
+    try:
+        FeatureSpec(ritz_basis=text.split(","))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", required=True)
     ap.add_argument("--count", type=int, default=500)
     ap.add_argument("--modes", type=int, default=5)
-    ap.add_argument("--basis", nargs="+", default=["3,3"],
+    ap.add_argument("--basis", nargs="+", default=["3,3"], type=_basis,
                     help="DEGREE,CHORD_TERMS of the Ritz bases to compare")
     ap.add_argument("--json")
     a = ap.parse_args(argv)
@@ -63,9 +71,8 @@ def main(argv=None) -> int:
     print(f"{len(batch)} panels of {a.data}; log omega_truth - log omega_estimate, modes 1-{R}")
     estimates = [("spread chain", spread, None)]
     for b in a.basis:
-        basis = tuple(int(v) for v in b.split(","))
         t0 = time.process_time()
-        est = ritz_log_omega(batch, R, () if basis == (3, 3) else basis)
+        est = ritz_log_omega(batch, R, FeatureSpec(ritz_basis=b.split(",")).ritz_basis)
         estimates.append((f"planform Ritz {b}", est,
                           1e3 * (time.process_time() - t0) / len(batch)))
     for name, est, ms in estimates:

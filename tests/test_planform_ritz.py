@@ -90,6 +90,11 @@ def test_a_ritz_network_corrects_the_ritz_columns(spread):
     rich = FeatureSpec(**{**spec.to_dict(), "ritz_basis": [4, 4]})
     assert rich.ritz_basis == (4, 4) and FeatureSpec(**rich.to_dict()) == rich
     assert not np.allclose(features(batch, rich), features(batch, spec))
+    # the default basis spelled out is the default: the same features, cache and metadata
+    assert FeatureSpec(**{**spec.to_dict(), "ritz_basis": [3, 3]}) == spec
+    for bad in ([4], [4, 4, 4], ["a", "b"], [0, 3], [4, 9]):
+        with pytest.raises(ValueError, match="two integers"):
+            FeatureSpec(ritz_basis=bad)
 
 
 def test_stations_a_sliver_apart_are_a_step():

@@ -83,6 +83,7 @@ class Watch:                       # records the BLAS setting when NumPy is firs
     def find_spec(self, name, path=None, target=None):
         if name == "numpy" and Watch.seen == "never":
             Watch.seen = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
+assert "numpy" not in sys.modules            # else the watch would see nothing
 sys.meta_path.insert(0, Watch())
 sys.path.insert(0, sys.argv[1])
 sys.argv = [sys.argv[2], "--help"]
@@ -122,8 +123,9 @@ def _one_line_exit_2(run, *words):
     (("--data", "DATA", "--out", "OUT", "--width", "wide"), ["--width", "wide"]),
     (("--data", "DATA", "--out", "OUT", "--objective", "loudness"), ["--objective", "frequency"]),
     (("--data", "DATA", "--out", "OUT", "--members", "0"), ["--members", ">= 1"]),
-    (("--data", "DATA", "--out", "OUT", "--ritz", "true", "--ritz_basis", "4"), ["--ritz_basis"]),
-    (("--data", "DATA", "--out", "OUT", "--ritz_basis", "4,4"), ["--ritz_basis", "--ritz"]),
+    (("--data", "DATA", "--out", "OUT", "--ritz", "true", "--ritz_basis", "4"),
+     ["--ritz_basis", "two integers", "'4'"]),
+    (("--data", "DATA", "--out", "OUT", "--ritz_basis", "4,4"), ["--ritz_basis", "only with --ritz"]),
     (("--data", "DATA", "--out", "out.pt"), ["--out", ".safetensors"]),
     (("--data", "DATA", "--out", "OUT", "--modes", "physics,guessing"), ["--modes"]),
     (("--data", "DATA", "--out", "OUT", "--config", "none.toml"), ["--config", "none.toml"]),
@@ -518,6 +520,21 @@ def test_init_from_starts_where_the_checkpoint_was(tmp_path, tiny_data):
     run = script("train_surrogate.py", "--data", plate, "--out", tmp_path / "c.safetensors",
                  "--init_from", start, "--init_gamma", "0.4,0.3,0.3", *TINY_NET, cwd=tmp_path)
     _one_line_exit_2(run, "--init_gamma", "--init_from")
+    assert listing(tmp_path) == before
+
+
+def test_init_from_keeps_the_ritz_basis(tmp_path, tiny_data):
+    """The Ritz columns of another basis have the same names but other values: a start
+    trained on one basis is refused by a run on another, before anything is written."""
+    start = tmp_path / "start.safetensors"
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", start, "--device", "cpu",
+                 "--ritz", "true", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    before = listing(tmp_path)
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", tmp_path / "b.safetensors",
+                 "--init_from", start, "--ritz", "true", "--ritz_basis", "4,4", *TINY_NET,
+                 cwd=tmp_path)
+    _one_line_exit_2(run, "--init_from", "ritz_basis = ()", "(4, 4)")
     assert listing(tmp_path) == before
 
 

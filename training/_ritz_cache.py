@@ -42,7 +42,7 @@ SAVE_EVERY = 2000
 
 def _key(spec: dict, modes: int, basis=()) -> str:
     head = {"spec": spec, "modes": modes}
-    if basis:                    # the default basis's files keep their names
+    if basis:                    # the default basis: as before ritz_basis existed
         head["basis"] = [int(v) for v in basis]
     head = json.dumps(head, sort_keys=True).encode()
     return hashlib.sha256(head + _CODE).hexdigest()[:24]

@@ -17,7 +17,7 @@ def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[d
     """(weights, metadata, sha256 of the file) of the start checkpoint at ``path``, checked
     against this run: ``feature_names`` (its features must be a subset) and ``settings``, the
     values its metadata must equal (joints, width, depth, k_mode, hypotheses, poses as a list,
-    truth_modes, cells, rfe_segments, rfe_coarse, spread), ``truth`` this run's truth (for the
+    truth_modes, cells, rfe_segments, rfe_coarse, spread, ritz_basis), ``truth`` this run's truth (for the
     message). StartError otherwise."""
     from prbdm.errors import BadInput
     from prbdm.surrogate.checkpoint import read_checkpoint
@@ -30,9 +30,11 @@ def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[d
                 "freq_width": net.get("freq_width", 0), "depth": net["depth"],
                 "k_mode": net["k_mode"], "hypotheses": net["hypotheses"],
                 "poses": meta["poses"], "truth_modes": meta["truth_modes"],
-                # spread is absent from checkpoints made before it (then off)
+                # spread and ritz_basis are absent from checkpoints made before them (then off,
+                # the default basis)
                 **{k: (fs.get(k, False) if k == "spread" else fs[k])
-                   for k in ("cells", "rfe_segments", "rfe_coarse", "spread")}}
+                   for k in ("cells", "rfe_segments", "rfe_coarse", "spread")},
+                "ritz_basis": tuple(fs.get("ritz_basis", ()))}
         lost = [f for f in meta["features"]["names"] if f not in feature_names]
         for k in ("feature_mean", "feature_std", "logk_mean", "logk_std", "freq_mean",
                   "freq_std", "gamma_mean", "gamma_std"):
@@ -43,6 +45,8 @@ def read_start(path, feature_names: list, settings: dict, truth: str) -> tuple[d
         raise StartError(f"{path} lacks {exc} in its metadata; a start checkpoint must be one "
                          "that training/train_surrogate.py wrote") from None
     for k, want in settings.items():
+        if k == "ritz_basis" and not fs.get("ritz"):
+            continue                 # a start without the Ritz features: any basis may follow
         got = have[k]
         if (not (np.shape(got) == np.shape(want) and np.allclose(got, want, rtol=0, atol=1e-12))
                 if k == "poses" else got != want):

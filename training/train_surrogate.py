@@ -122,9 +122,9 @@ SETTINGS = {
     "ritz": S(False, "add the plate's bending spectrum estimated by Rayleigh-Ritz on the planform "
                      "(log_omega_ritz, prbdm.truth.planform_ritz, ~20 ms a panel) and correct "
                      "that one: for plates"),
-    "ritz_basis": S("", "DEGREE,CHORD_TERMS of the Ritz estimate's basis (prbdm.truth."
-                        "planform_ritz; empty: its defaults, 3,3): 4,4 follows the paper's jagged "
-                        "panels closer at ~4x the cost"),
+    "ritz_basis": S("", "DEGREE,CHORD_TERMS of the Ritz estimate's basis (empty: the defaults, "
+                        "prbdm.truth.planform_ritz.RITZ_DEFAULTS): 4,4 follows the paper's "
+                        "jagged panels closer at ~4x the cost"),
     "partial": S("", "data sets of which the first K truth modes alone are the target, "
                      "PATH:K comma-separated (e.g. a section-rule set: its modes 1-2 are the "
                      "bending spectrum's): their training panels teach the frequency head those "
@@ -164,14 +164,14 @@ if not 0 <= wta_eps <= 1:
     _fail(f"--wta_eps: must be in [0, 1], got {wta_eps}")
 if not 0 <= loss_power <= 8:
     _fail(f"--loss_power: must be in [0, 8], got {loss_power}")
+if ritz_basis.strip() and not ritz:
+    _fail(f"--ritz_basis: only with --ritz true, got {ritz_basis!r}")
 try:
-    ritz_basis = tuple(int(v) for v in ritz_basis.split(",")) if ritz_basis.strip() else ()
-    if ritz_basis and not (len(ritz_basis) == 2 and 1 <= ritz_basis[0] <= 8
-                           and 1 <= ritz_basis[1] <= 8 and ritz):
-        raise ValueError
-except ValueError:
-    _fail(f"--ritz_basis: DEGREE,CHORD_TERMS, two integers in [1, 8], only with --ritz, got "
-          f"{ritz_basis!r}")
+    from prbdm.surrogate.features import FeatureSpec as _Spec  # checks the basis
+    ritz_basis = _Spec(ritz_basis=tuple(ritz_basis.split(",")) if ritz_basis.strip()
+                       else ()).ritz_basis
+except ValueError as exc:
+    _fail(f"--ritz_basis: {str(exc).removeprefix('ritz_basis: ')}, got {ritz_basis!r}")
 out_path = Path(out)
 if out_path.suffix != ".safetensors":
     _fail(f"--out: must end in .safetensors, got {out!r}")
@@ -286,17 +286,18 @@ if init_from:
         _fail("--init_gamma: not with --init_from (the start checkpoint's segmentations are the "
               "start)")
     _R = min(spec["truth_modes"], rfe_segments - 1)
-    _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
-                                             truth=spec["truth"], rfe_coarse=rfe_coarse,
-                                             spread=spread, profile=profile, ritz=ritz,
-                                             ritz_basis=ritz_basis))
+    _fs = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R, truth=spec["truth"],
+                      rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
+                      ritz_basis=ritz_basis)
+    _names, fspec_basis = feature_names(_fs), _fs.ritz_basis
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "freq_width": freq_width, "depth": depth,
             "k_mode": k_mode,
             "hypotheses": hypotheses, "poses": model.make_poses(pose_spec, n).tolist(),
             "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
-            "rfe_coarse": rfe_coarse, "spread": spread}, spec["truth"])
+            "rfe_coarse": rfe_coarse, "spread": spread, "ritz_basis": fspec_basis},
+            spec["truth"])
     except (_start.StartError, ValueError) as exc:       # BadInput is a ValueError
         _fail(f"--init_from: {exc}")
 

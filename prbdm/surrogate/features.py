@@ -168,6 +168,11 @@ def rfe_log_omega(batch: BeamBatch, segments: int, modes: int, coarse: int = 0,
 
 
 
+#: the largest span-wise degree and number of chord-wise terms of a Ritz basis (the dense solve
+#: grows as the cube of their product)
+RITZ_BASIS_MAX = 8
+
+
 @dataclass(frozen=True)
 class FeatureSpec:
     """What the features are: ``cells`` equal cells of x / L for the width means,
@@ -184,8 +189,20 @@ class FeatureSpec:
     ritz: bool = False           # add log_omega_ritz, the plate's own estimate, and correct it
     ritz_basis: tuple = ()       # (degree, chord terms) of that estimate; () the default one
 
-    def __post_init__(self):     # a checkpoint's JSON gives a list
-        object.__setattr__(self, "ritz_basis", tuple(int(v) for v in self.ritz_basis))
+    def __post_init__(self):
+        """``ritz_basis``: a checkpoint's JSON gives a list; the default basis is ``()``."""
+        from ..truth.planform_ritz import RITZ_DEFAULTS
+        try:
+            basis = tuple(int(v) for v in self.ritz_basis)
+        except (TypeError, ValueError):
+            basis = None
+        if basis is None or not (basis == () or (
+                len(basis) == 2 and all(1 <= b <= RITZ_BASIS_MAX for b in basis))):
+            raise ValueError(f"ritz_basis: DEGREE,CHORD_TERMS, two integers in "
+                             f"[1, {RITZ_BASIS_MAX}]")
+        if basis == (RITZ_DEFAULTS["degree"], RITZ_DEFAULTS["chord_terms"]):
+            basis = ()
+        object.__setattr__(self, "ritz_basis", basis)
 
     def to_dict(self) -> dict:
         out = {"cells": self.cells, "rfe_segments": self.rfe_segments,
