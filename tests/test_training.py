@@ -536,6 +536,19 @@ def test_init_from_keeps_the_ritz_basis(tmp_path, tiny_data):
                  cwd=tmp_path)
     _one_line_exit_2(run, "--init_from", "ritz_basis = ()", "(4, 4)")
     assert listing(tmp_path) == before
+    # a network trained on another basis carries it to every answer
+    rich = tmp_path / "rich.safetensors"
+    run = script("train_surrogate.py", "--data", tiny_data, "--out", rich, "--device", "cpu",
+                 "--ritz", "true", "--ritz_basis", "4,4", *TINY_NET, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-3000:]
+    sur, plain = sg.load_checkpoint(rich), sg.load_checkpoint(start)
+    assert sur.feature_spec.ritz_basis == (4, 4) and plain.feature_spec.ritz_basis == ()
+    batch = BeamBatch.from_table(D.read_table(tiny_data, status="ok").to_pandas().iloc[:3],
+                                 D.read_manifest(tiny_data)["spec"]["beam"]["material"])
+    column = sur.feature_spec.base_columns(3)
+    np.testing.assert_allclose(sur.features(batch)[:, column],
+                               ritz_log_omega(batch, sur.feature_spec.rfe_modes, (4, 4))[:, :3],
+                               rtol=1e-9, atol=1e-9)
 
 
 # ------------------------------------------------------------------------------- retest
