@@ -286,17 +286,16 @@ if init_from:
         _fail("--init_gamma: not with --init_from (the start checkpoint's segmentations are the "
               "start)")
     _R = min(spec["truth_modes"], rfe_segments - 1)
-    _fs = FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R, truth=spec["truth"],
-                      rfe_coarse=rfe_coarse, spread=spread, profile=profile, ritz=ritz,
-                      ritz_basis=ritz_basis)
-    _names, fspec_basis = feature_names(_fs), _fs.ritz_basis
+    _names = feature_names(FeatureSpec(cells=cells, rfe_segments=rfe_segments, rfe_modes=_R,
+                                       truth=spec["truth"], rfe_coarse=rfe_coarse, spread=spread,
+                                       profile=profile, ritz=ritz, ritz_basis=ritz_basis))
     try:
         init_weights, init_meta, init_sha256 = _start.read_start(init_from, _names, {
             "joints": n, "width": width, "freq_width": freq_width, "depth": depth,
             "k_mode": k_mode,
             "hypotheses": hypotheses, "poses": model.make_poses(pose_spec, n).tolist(),
             "truth_modes": _R, "cells": cells, "rfe_segments": rfe_segments,
-            "rfe_coarse": rfe_coarse, "spread": spread, "ritz_basis": fspec_basis},
+            "rfe_coarse": rfe_coarse, "spread": spread, "ritz_basis": ritz_basis},
             spec["truth"])
     except (_start.StartError, ValueError) as exc:       # BadInput is a ValueError
         _fail(f"--init_from: {exc}")
