@@ -419,6 +419,26 @@ def test_ritz_features_are_kept_for_the_next_run(tmp_path, tiny_data):
                                atol=1e-9)
 
 
+def test_add_neighbours_reads_the_kept_ritz_columns(tmp_path, tiny_data):
+    """training/add_neighbours.py --cache reads a ritz network's Ritz columns where training
+    kept them (nothing computed, the file untouched) and goes on as without it: here to the
+    same refusal, the tiny set's 2 held-out panels being too few to place the limit."""
+    out = tmp_path / "runs" / "net.safetensors"
+    trained = script("train_surrogate.py", "--data", tiny_data, "--out", out, "--device", "cpu",
+                     *TINY_NET, "--ritz", "true", "--seed", "3", cwd=tmp_path)
+    assert trained.returncode == 0, trained.stderr[-3000:]
+    (kept,) = (out.parent / ".feature-cache").iterdir()
+    stamp = kept.stat().st_mtime_ns
+    cached = script("add_neighbours.py", "--checkpoint", out, "--cache", kept.parent,
+                    cwd=tmp_path)
+    assert f"kept in {kept.name}, 0 to compute" in cached.stdout, cached.stdout
+    assert kept.stat().st_mtime_ns == stamp
+    computed = script("add_neighbours.py", "--checkpoint", out, cwd=tmp_path)
+    assert "to compute" not in computed.stdout
+    assert cached.returncode == computed.returncode == 2
+    assert cached.stderr == computed.stderr and "too few" in cached.stderr
+
+
 def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):
     """A kept row whose planform no longer matches its index (a set relabelled under the same
     spec) is computed again, not read; an unreadable file is computed again."""

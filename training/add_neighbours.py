@@ -14,7 +14,10 @@ them. The training split (training/_sets.py ``split``) gives ``--count`` panels 
 held-out nearest distances and the limit beyond which an answer is warned about (their 99.9th
 percentile: prbdm.surrogate.neighbours). A ``ritz`` network (the planform Ritz estimate, ~20 ms
 a panel) with every set here computes the features of those panels only, not of the whole
-training split, whose ranges are then checked to hold them. ``--write 1`` stores both in the checkpoint (the tensor
+training split, whose ranges are then checked to hold them; ``--cache DIR`` reads their Ritz
+columns from the folder training keeps them in (``runs/.feature-cache``: training/_ritz_cache.py,
+each row checked against its panel's digest) and computes only the ones missing there (and adds
+them). ``--write 1`` stores both in the checkpoint (the tensor
 ``neighbours.features`` and the metadata ``neighbours``; the weights and weights_sha256
 unchanged; both files rewritten whole). Bad input or a mismatch: one line, exit status 2,
 nothing written.
@@ -35,6 +38,8 @@ SETTINGS = {
     "count": _cli.Setting(4096, "training panels kept in the reference"),
     "seed": _cli.Setting(0, "seed of the random draw of the reference panels"),
     "write": _cli.Setting(False, "store the reference in the checkpoint"),
+    "cache": _cli.Setting("", "folder of the Ritz columns training kept (runs/.feature-cache): "
+                              "read there, the missing ones computed and added"),
 }
 cfg = _cli.parse(PROG, __doc__.split("\n\n")[0], SETTINGS, required=("checkpoint",))
 
@@ -43,6 +48,7 @@ def _fail(message):
     _cli.fail(PROG, message)
 
 
+import _ritz_cache  # noqa: E402  (after _cli: it loads NumPy)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -56,6 +62,7 @@ from prbdm.surrogate.checkpoint import (  # noqa: E402
     save_checkpoint,
     training_sets,
 )
+from prbdm.surrogate.features import features  # noqa: E402
 from prbdm.surrogate.neighbours import (  # noqa: E402
     NEIGHBOURS_TENSOR,
     build_reference,
@@ -142,7 +149,17 @@ else:
     keep = np.arange(len(table))
 t0 = time.perf_counter()
 feats = np.full((len(table), len(sur.names)), np.nan)
-feats[keep] = sur.features(BeamBatch.from_table(table.iloc[keep], material))
+ritz_cols = None
+if cfg["cache"] and sur.feature_spec.ritz and not regenerated:
+    # each set's rows among ``keep``, in the concatenated order
+    starts = np.cumsum([0] + [len(t_) for t_ in tables])
+    ritz_cols = np.concatenate([
+        _ritz_cache.ritz_columns(t_.iloc[keep[(keep >= a) & (keep < b)] - a], s_["spec"],
+                                 sur.feature_spec.rfe_modes, Path(cfg["cache"]),
+                                 basis=sur.feature_spec.ritz_basis)
+        for t_, s_, a, b in zip(tables, training_sets(meta), starts[:-1], starts[1:])])
+feats[keep] = features(BeamBatch.from_table(table.iloc[keep], material), sur.feature_spec,
+                       ritz_cols)
 print(f"features of {len(keep)} of {len(table)} panels: {time.perf_counter() - t0:.0f} s")
 
 # the panels are the training ones: the recorded ranges are those of the training split
