@@ -12,8 +12,8 @@ training panel made again, and all but the records the set lacked (its failures)
 them. The training split (training/_sets.py ``split``) gives ``--count`` panels drawn at random
 (``--seed``), whose normalised features become the reference; the test split's panels give the
 held-out nearest distances and the limit beyond which an answer is warned about (their 99.9th
-percentile: prbdm.surrogate.neighbours). A ``ritz`` network (the planform Ritz estimate, ~20 ms
-a panel) with every set here computes the features of those panels only, not of the whole
+percentile: prbdm.surrogate.neighbours). A ``ritz`` network (the planform Ritz estimate, ~24 ms
+a panel, ~90 ms in the 4,4 basis) with every set here computes the features of those panels only, not of the whole
 training split, whose ranges are then checked to hold them; ``--cache DIR`` reads their Ritz
 columns from the folder training keeps them in (``runs/.feature-cache``: training/_ritz_cache.py,
 each row checked against its panel's digest) and computes only the ones missing there (and adds
