@@ -437,6 +437,10 @@ def test_add_neighbours_reads_the_kept_ritz_columns(tmp_path, tiny_data):
     assert "to compute" not in computed.stdout
     assert cached.returncode == computed.returncode == 2
     assert cached.stderr == computed.stderr and "too few" in cached.stderr
+    # a file where the folder belongs: one line, exit 2
+    not_a_folder = script("add_neighbours.py", "--checkpoint", out, "--cache", out, cwd=tmp_path)
+    assert not_a_folder.returncode == 2 and "--cache: must be a folder" in not_a_folder.stderr
+    assert len(not_a_folder.stderr.strip().splitlines()) == 1
 
 
 def test_ritz_cache_recomputes_a_changed_panel(tmp_path, tiny_data):

@@ -75,6 +75,9 @@ GEOMETRY = ["index", "x", "half_width", "thickness", "nu", "length"]
 path = Path(cfg["checkpoint"])
 if cfg["count"] < 1:
     _fail(f"--count: must be >= 1, got {cfg['count']}")
+if cfg["cache"] and Path(cfg["cache"]).exists() and not Path(cfg["cache"]).is_dir():
+    _fail(f"--cache: must be a folder (training's runs/.feature-cache), got the file "
+          f"{cfg['cache']!r}")
 try:
     weights, meta = read_checkpoint(path)
     sur = sg.Surrogate(weights, meta, path)
