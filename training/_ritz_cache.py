@@ -103,3 +103,11 @@ def ritz_columns(table, spec: dict, modes: int, folder: Path, log=print,
               np.concatenate([digest[hit], kept_digest]),
               np.concatenate([out[hit], kept_cols]))
     return out
+
+
+def set_columns(tables, sets, modes: int, folder: Path, log=print, basis=()) -> np.ndarray:
+    """:func:`ritz_columns` of several data sets' records, concatenated in their order:
+    ``tables[i]`` (pandas, with ``index``) read from the set whose recorded entry is
+    ``sets[i]`` (its ``spec``)."""
+    return np.concatenate([ritz_columns(t, s["spec"], modes, folder, log, basis=basis)
+                           for t, s in zip(tables, sets)])

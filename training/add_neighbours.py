@@ -156,11 +156,11 @@ ritz_cols = None
 if cfg["cache"] and sur.feature_spec.ritz and not regenerated:
     # each set's rows among ``keep``, in the concatenated order
     starts = np.cumsum([0] + [len(t_) for t_ in tables])
-    ritz_cols = np.concatenate([
-        _ritz_cache.ritz_columns(t_.iloc[keep[(keep >= a) & (keep < b)] - a], s_["spec"],
-                                 sur.feature_spec.rfe_modes, Path(cfg["cache"]),
-                                 basis=sur.feature_spec.ritz_basis)
-        for t_, s_, a, b in zip(tables, training_sets(meta), starts[:-1], starts[1:])])
+    ritz_cols = _ritz_cache.set_columns(
+        [t_.iloc[keep[(keep >= a) & (keep < b)] - a]
+         for t_, a, b in zip(tables, starts[:-1], starts[1:])],
+        training_sets(meta), sur.feature_spec.rfe_modes, Path(cfg["cache"]),
+        basis=sur.feature_spec.ritz_basis)
 feats[keep] = features(BeamBatch.from_table(table.iloc[keep], material), sur.feature_spec,
                        ritz_cols)
 print(f"features of {len(keep)} of {len(table)} panels: {time.perf_counter() - t0:.0f} s")

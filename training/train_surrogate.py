@@ -354,10 +354,8 @@ sha = (sets[0]["sha256"] if len(sets) == 1 else
 batch = BeamBatch.from_table(table, material)
 # the Ritz estimate costs ~20 ms a panel (minutes for a set): its columns are kept beside the
 # checkpoint, per set and index, for the next run (training/_ritz_cache.py)
-ritz_cols = (np.concatenate([_ritz_cache.ritz_columns(t_, s_["spec"], R,
-                                                      out_path.parent / ".feature-cache", log,
-                                                      basis=ritz_basis)
-                             for t_, s_ in zip(tables, sets)]) if ritz else None)
+ritz_cols = (_ritz_cache.set_columns(tables, sets, R, out_path.parent / ".feature-cache", log,
+                                     basis=ritz_basis) if ritz else None)
 feats = features(batch, fspec, ritz_cols)
 names = feature_names(fspec)
 omega_truth = np.stack(table["omega_truth"].to_numpy())[:, :R]
